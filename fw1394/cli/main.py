@@ -1,0 +1,69 @@
+"""The ``fw1394`` command: one entry point, one subcommand per module of this package.
+
+Every module in :mod:`fw1394.cli` that defines ``register(subparsers)`` adds its
+subcommands; a subcommand's handler takes the parsed namespace and returns an
+exit status. Errors meant for the user are raised as :class:`CliError` (or the
+codec's :class:`~fw1394.packets.PacketError`) and printed as one line.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import pkgutil
+import sys
+from collections.abc import Sequence
+
+import fw1394
+from fw1394.cli.common import CliError, fail
+from fw1394.packets import PacketError
+
+DESCRIPTION = """\
+fw1394: a wire-level IEEE 1394 (FireWire) protocol toolkit.
+
+Decode and encode packets, run a virtual 1394 bus of emulated FPGA boards,
+drive them as a host, capture and dissect traffic, and fuzz a node's parser.
+Run `fw1394 COMMAND --help` for each command's options and examples.
+"""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="fw1394",
+        description=DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--version", action="version", version=f"fw1394 {fw1394.__version__}")
+    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
+    package = importlib.import_module("fw1394.cli")
+    for module_info in sorted(pkgutil.iter_modules(package.__path__), key=lambda m: m.name):
+        if module_info.name in ("main", "common"):
+            continue
+        module = importlib.import_module(f"fw1394.cli.{module_info.name}")
+        register = getattr(module, "register", None)
+        if register is not None:
+            register(subparsers)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 0
+    try:
+        status: int = args.handler(args)
+    except (CliError, PacketError) as error:
+        return fail(str(error))
+    except KeyboardInterrupt:
+        print("fw1394: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        # Output piped into `head` and closed: not an error worth a traceback.
+        return 0
+    return status
+
+
+if __name__ == "__main__":
+    sys.exit(main())

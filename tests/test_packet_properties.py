@@ -1,0 +1,112 @@
+"""Round trips and robustness of the codec, for every packet kind, with hypothesis."""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from fw1394.fuzz.strategies import acks, async_packets, phy_packets
+from fw1394.packets import (
+    ASYNC_CLASSES,
+    LAYOUTS,
+    Ack,
+    AsyncPacket,
+    PacketError,
+    PhyPacket,
+    decode,
+    encode,
+    to_json,
+)
+from fw1394.packets.asynchronous import stored_header_fields
+from fw1394.packets.fast import FIELD_NAMES, decode_header
+
+
+def test_classes_declare_exactly_their_layout_fields() -> None:
+    for tcode, cls in ASYNC_CLASSES.items():
+        assert set(stored_header_fields(cls)) == set(LAYOUTS[tcode].fields), cls.__name__
+
+
+@given(async_packets(max_data=64))
+def test_parse_build_async(packet: AsyncPacket) -> None:
+    assert decode(encode(packet)) == packet.with_crcs()
+
+
+@given(async_packets(max_data=64))
+def test_parse_build_async_without_crc(packet: AsyncPacket) -> None:
+    assert decode(encode(packet, crc=False), crc=False, kind="async") == packet
+
+
+@given(phy_packets())
+def test_parse_build_phy(packet: PhyPacket) -> None:
+    assert decode(encode(packet), kind="phy") == packet.with_inverse()
+    assert type(decode(encode(packet, crc=False), crc=False, kind="phy")) is type(packet)
+
+
+@given(acks())
+def test_parse_build_ack(ack: Ack) -> None:
+    assert decode(encode(ack)) == Ack(ack.code, ack.code ^ 0xF)
+
+
+@given(async_packets(max_data=64, with_crc=True))
+def test_build_parse_is_identity_on_valid_bytes(packet: AsyncPacket) -> None:
+    wire = encode(packet)
+    assert encode(decode(wire)) == wire
+
+
+@given(st.binary(max_size=80))
+@settings(max_examples=500)
+def test_arbitrary_bytes_strict_only_packet_error(blob: bytes) -> None:
+    with contextlib.suppress(PacketError):
+        decode(blob)
+
+
+@given(st.binary(max_size=80))
+@settings(max_examples=500)
+def test_arbitrary_bytes_lenient_is_a_flagged_packet(blob: bytes) -> None:
+    try:
+        packet = decode(blob, strict=False)
+    except PacketError as error:
+        # Only when no packet can be made: too short for a header, or no such tcode.
+        assert error.field in ("length", "tcode", "identifier")
+        return
+    to_json(packet)  # every decoded packet can be shown
+    try:
+        decode(blob, strict=True)
+    except PacketError as error:
+        assert str(error) in [str(p) for p in packet.problems]
+    else:
+        assert not packet.problems
+
+
+@given(async_packets(max_data=64, with_crc=True), st.integers(0, 7), st.integers(0, 7))
+def test_a_flipped_bit_is_always_caught(packet: AsyncPacket, byte: int, bit: int) -> None:
+    wire = bytearray(encode(packet))
+    wire[byte] ^= 1 << bit
+    try:
+        damaged = decode(bytes(wire), strict=False)
+    except PacketError:
+        return  # the flip changed the tcode into one no layout has
+    assert damaged.problems
+
+
+@given(async_packets(max_data=64, with_crc=True))
+def test_fast_path_equals_construct_path(packet: AsyncPacket) -> None:
+    wire = encode(packet)
+    values = dict(zip(FIELD_NAMES[int(packet.tcode)], decode_header(wire), strict=True))
+    assert values.pop("tcode") == packet.tcode
+    decoded = decode(wire)
+    expected = {**decoded.header_fields(), "header_crc": decoded.header_crc}
+    del expected["tcode"]
+    assert values == expected
+
+
+def test_dataclass_values_are_immutable() -> None:
+    packet = decode(bytes.fromhex("ffc0f140ffc1fffff00009845bdd119c"))
+    try:
+        packet.tlabel = 3  # type: ignore[misc]
+    except dataclasses.FrozenInstanceError:
+        return
+    raise AssertionError("packets must be immutable")
