@@ -330,14 +330,16 @@ def encode_async(packet: AsyncPacket, *, crc: bool = True) -> bytes:
                 else crc32(layout.header.pack(header))
             )
         if not layout.has_data:
-            raw: bytes = (layout.wire if crc else layout.header).build(header)
+            # Quadlets.pack is what the construct's build calls, minus construct's
+            # per-call context setup: this runs for every packet a node sends.
+            raw: bytes = (layout.sealed_header if crc else layout.header).pack(header)
         else:
             data: bytes = packet.data  # type: ignore[attr-defined]
             block: dict[str, Any] = {"header": header, "data": data}
             if crc:
                 received: int | None = packet.data_crc  # type: ignore[attr-defined]
                 block["data_crc"] = data_crc(data) if received is None else received
-            raw = (layout.wire if crc else layout.bare).build(block)
+            raw = layout.parser(crc=crc).build(block)
     except FieldRangeError as error:
         raise PacketError(error.field, error.problem) from None
     except ConstructError as error:
@@ -411,7 +413,7 @@ def _with_data_block(
 ) -> AsyncPacket:
     layout = cls.LAYOUT
     length: int = values["data_length"]
-    structure = layout.wire if crc else layout.bare
+    structure = layout.parser(crc=crc)
     expected = size + len(padded(bytes(length))) + (4 if crc else 0)
     if len(raw) >= expected:
         parsed = structure.parse(raw[:expected])

@@ -13,7 +13,18 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from construct import Bytes, Construct, Int32ub, Padding, Struct
+from construct import (
+    Bytes,
+    Compiled,
+    Construct,
+    GreedyBytes,
+    IfThenElse,
+    Int32ub,
+    Padding,
+    Struct,
+    len_,
+    this,
+)
 
 from fw1394.packets.enums import TCode
 from fw1394.packets.fields import FieldSpec, Quadlets
@@ -51,14 +62,14 @@ STREAM: Quadlet = (
 HEADER_CRC: Quadlet = (("header_crc", 32),)
 
 
-def _data_size(this: Any) -> int:
-    # Parsing trusts data_length; building writes the data as given, so a packet
-    # whose data_length disagrees with its data can still be built (for fuzzing).
-    return int(this.header["data_length"] if this._parsing else len(this.data))
-
-
 #: The data block of block packets: data, then zero padding to a quadlet boundary.
-DATA_BLOCK = ("data" / Bytes(_data_size), Padding(lambda this: -len(this.data) % 4))
+#: Parsing trusts data_length; building writes the data as given, so a packet whose
+#: data_length disagrees with its data can still be built (the fuzzer needs them).
+#: Written with ``this`` expressions only, so construct can compile it.
+DATA_BLOCK = (
+    "data" / IfThenElse(this._parsing, Bytes(this.header["data_length"]), GreedyBytes),
+    Padding(-len_(this.data) % 4),
+)
 
 
 @dataclass(frozen=True)
@@ -89,6 +100,14 @@ class Layout:
         object.__setattr__(self, "wire", wire)
         object.__setattr__(self, "bare", bare)
 
+    def parser(self, *, crc: bool) -> Compiled:
+        """The compiled construct of the whole packet (compiled on first use)."""
+        key = (self.tcode, crc)
+        compiled = _COMPILED.get(key)
+        if compiled is None:
+            compiled = _COMPILED[key] = (self.wire if crc else self.bare).compile()
+        return compiled
+
     @property
     def header_size(self) -> int:
         """Bytes of header before the header CRC."""
@@ -105,6 +124,9 @@ class Layout:
             {"field": f.name, "quadlet": f.quadlet, "msb": f.msb, "lsb": f.lsb, "shift": f.shift}
             for f in self.sealed_header.bitfields
         ]
+
+
+_COMPILED: dict[tuple[TCode, bool], Compiled] = {}
 
 
 def _request(*tail: Quadlet) -> tuple[Quadlet, ...]:

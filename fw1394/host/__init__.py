@@ -1,0 +1,30 @@
+"""Host-side robot I/O library, the three layers of the 2010 thesis (7.1).
+
+* top: :class:`RobotIO`, abstract per-axis I/O with latch/apply;
+* middle: :class:`Board` (one node, block transfers) and
+  :class:`MultiBoard` (several nodes as one robot);
+* bottom: a :class:`Port` moving quadlets and blocks; :class:`LocalPort`
+  drives in-process board emulators.
+
+:class:`PositionLoop` is a small PD servo on top of :class:`RobotIO`.
+"""
+
+from fw1394.host.board import Board, BoardError
+from fw1394.host.control import PdGains, PositionLoop, Trajectory
+from fw1394.host.multiboard import MultiBoard
+from fw1394.host.port import LocalPort, ManualClock, Port, UnknownNodeError
+from fw1394.host.robot import RobotIO
+
+__all__ = [
+    "Board",
+    "BoardError",
+    "LocalPort",
+    "ManualClock",
+    "MultiBoard",
+    "PdGains",
+    "Port",
+    "PositionLoop",
+    "RobotIO",
+    "Trajectory",
+    "UnknownNodeError",
+]
