@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -20,8 +21,8 @@ from fw1394.packets import (
     encode,
     to_json,
 )
-from fw1394.packets.asynchronous import stored_header_fields
-from fw1394.packets.fast import FIELD_NAMES, decode_header
+from fw1394.packets.asynchronous import decode_async, stored_header_fields
+from fw1394.packets.fast import FIELD_NAMES, decode_header, decode_packet, encode_packet
 
 
 def test_classes_declare_exactly_their_layout_fields() -> None:
@@ -110,3 +111,27 @@ def test_dataclass_values_are_immutable() -> None:
     except dataclasses.FrozenInstanceError:
         return
     raise AssertionError("packets must be immutable")
+
+
+@given(async_packets(max_data=64))
+def test_fast_encode_equals_codec(packet: AsyncPacket) -> None:
+    assert encode_packet(packet) == encode(packet)
+
+
+@given(async_packets(max_data=64))
+def test_fast_decode_equals_codec_on_sound_packets(packet: AsyncPacket) -> None:
+    wire = encode(packet)
+    assert decode_packet(wire) == decode_async(wire)
+
+
+@given(st.binary(max_size=80) | async_packets(max_data=16).map(encode).map(lambda b: b[:-1]))
+@settings(max_examples=300)
+def test_fast_decode_equals_codec_on_any_bytes(blob: bytes) -> None:
+    try:
+        expected = decode_async(blob)
+    except PacketError as error:
+        with pytest.raises(PacketError) as raised:
+            decode_packet(blob)
+        assert str(raised.value) == str(error)
+        return
+    assert decode_packet(blob) == expected

@@ -102,10 +102,8 @@ class Quadlets(construct.Construct):  # type: ignore[misc]
         unpack = self._unpack_line().replace("unpack(data)", "unpack_from(data, offset)")
         return f"def {function}(data, offset=0):\n{unpack}    return ({items},)\n"
 
-    def _build_source(self, function: str) -> str:
-        lines = [f"def {function}(obj):"]
-        for name in self.names:
-            lines.append(f"    {name} = obj[{name!r}]")
+    def _quadlet_expressions(self) -> list[str]:
+        """Python expressions packing each quadlet from variables named like the fields."""
         quadlets = []
         for i in range(self.count):
             terms = []
@@ -118,8 +116,36 @@ class Quadlets(construct.Construct):  # type: ignore[misc]
                 )
                 terms.append(term)
             quadlets.append(" | ".join(terms))
-        lines.append(f"    return ({', '.join(quadlets)},)")
+        return quadlets
+
+    def _build_source(self, function: str) -> str:
+        lines = [f"def {function}(obj):"]
+        lines.extend(f"    {name} = obj[{name!r}]" for name in self.names)
+        lines.append(f"    return ({', '.join(self._quadlet_expressions())},)")
         return "\n".join(lines) + "\n"
+
+    def attribute_packer(self, constants: dict[str, int]) -> Callable[[Any], bytes | None]:
+        """A function packing an object's attributes (``constants`` fixed) into bytes.
+
+        It returns ``None`` when a value does not fit its field, so a caller can
+        fall back to :meth:`pack`, which says which one.
+        """
+        lines = ["def _pack_attributes(obj):"]
+        checks = []
+        for name in self.names:
+            if name in constants:
+                lines.append(f"    {name} = {constants[name]!r}")
+                continue
+            lines.append(f"    {name} = obj.{name}")
+            checks.append(f"0 <= {name} <= {(1 << self.widths[name]) - 1:#x}")
+        if checks:
+            lines.append(f"    if not ({' and '.join(checks)}):")
+            lines.append("        return None")
+        lines.append(f"    return pack({', '.join(self._quadlet_expressions())})")
+        namespace: dict[str, Any] = {"pack": self.format.pack}
+        exec("\n".join(lines) + "\n", namespace)
+        packer: Callable[[Any], bytes | None] = namespace["_pack_attributes"]
+        return packer
 
     # -- construct protocol ------------------------------------------------------------
     def _parse(self, stream: Any, context: Any, path: str) -> dict[str, int]:
