@@ -22,7 +22,13 @@ from fw1394.packets import (
     to_json,
 )
 from fw1394.packets.asynchronous import decode_async, stored_header_fields
-from fw1394.packets.fast import FIELD_NAMES, decode_header, decode_packet, encode_packet
+from fw1394.packets.fast import (
+    FIELD_NAMES,
+    decode_header,
+    decode_packet,
+    decode_sound,
+    encode_packet,
+)
 
 
 def test_classes_declare_exactly_their_layout_fields() -> None:
@@ -135,3 +141,14 @@ def test_fast_decode_equals_codec_on_any_bytes(blob: bytes) -> None:
         assert str(raised.value) == str(error)
         return
     assert decode_packet(blob) == expected
+
+
+@given(st.binary(max_size=80) | async_packets(max_data=16).map(encode))
+@settings(max_examples=300)
+def test_decode_sound_is_strict_decode(blob: bytes) -> None:
+    try:
+        expected = decode_async(blob, strict=True)
+    except PacketError:
+        assert decode_sound(blob) is None
+        return
+    assert decode_sound(blob) == expected

@@ -101,12 +101,11 @@ _FACTORIES: dict[int, Callable[..., AsyncPacket]] = {
 }
 
 
-def decode_packet(raw: bytes) -> AsyncPacket:
-    """The same packet as ``decode_async(raw)`` (lenient), faster for sound packets.
+def decode_sound(raw: bytes) -> AsyncPacket | None:
+    """The packet if ``raw`` is a sound asynchronous packet (no ``problems``), else None.
 
-    Sound packets of known kinds are decoded with the generated header decoders;
-    anything else (short, bad CRC, extra bytes, odd lengths) goes through the
-    general codec, which records its problems.
+    Equal to ``decode_async(raw, strict=True)`` where that succeeds; decoded with
+    the generated header decoders, for the bus's receive path.
     """
     tcode = raw[TCODE_BYTE] >> TCODE_SHIFT if len(raw) >= 4 else -1
     size = HEADER_SIZES.get(tcode, 0)
@@ -115,13 +114,19 @@ def decode_packet(raw: bytes) -> AsyncPacket:
         or len(raw) < size
         or crc32(raw[: size - 4]) != int.from_bytes(raw[size - 4 : size])
     ):
-        return decode_async(raw)
+        return None
     values = _DECODERS[tcode](raw)
     if not _CLASSES[tcode].LAYOUT.has_data:
-        return _FACTORIES[tcode](values, None, None) if len(raw) == size else decode_async(raw)
+        return _FACTORIES[tcode](values, None, None) if len(raw) == size else None
     length = values[FIELD_NAMES[tcode].index("data_length")]
     end = size + length + (-length % 4)
     data_crc = int.from_bytes(raw[end:])
     if len(raw) != end + 4 or data_crc != crc32(raw[size:end]):
-        return decode_async(raw)
+        return None
     return _FACTORIES[tcode](values, raw[size : size + length], data_crc)
+
+
+def decode_packet(raw: bytes) -> AsyncPacket:
+    """The same packet as ``decode_async(raw)`` (lenient), faster for sound packets."""
+    packet = decode_sound(raw)
+    return decode_async(raw) if packet is None else packet

@@ -1,0 +1,408 @@
+"""The host side: start transactions, match acks and responses, report their ends.
+
+Sans-IO: the caller puts :meth:`Requester.packets_to_send` on the wire, hands
+back the acks and responses that came, and calls :meth:`Requester.handle_timer`
+by :meth:`Requester.next_deadline`. Every transaction ends with exactly one event
+(completed, or failed with a :class:`FailureReason`).
+"""
+
+from __future__ import annotations
+
+import heapq
+from dataclasses import replace
+
+from fw1394.engine.events import (
+    Event,
+    FailureReason,
+    TransactionFailed,
+    UnexpectedAck,
+    UnexpectedResponse,
+    WriteCompleted,
+)
+from fw1394.engine.labels import LabelPool
+from fw1394.engine.table import MISSING_ACK, ON_ACK, RETRY_CODES, Step
+from fw1394.engine.transaction import (
+    AWAIT_ACK,
+    AWAIT_RESPONSE,
+    BUSY_WAIT,
+    Transaction,
+    completion,
+    mismatch_of,
+    same_node,
+)
+from fw1394.packets import (
+    AckCode,
+    AsyncPacket,
+    BlockReadRequest,
+    BlockWriteRequest,
+    ExtendedTCode,
+    LockRequest,
+    QuadletReadRequest,
+    QuadletWriteRequest,
+    RCode,
+    Request,
+    Response,
+    name_of,
+)
+
+_BROADCAST_NODE = 63
+_OFFSET_LIMIT = 1 << 48
+_LENGTH_LIMIT = 1 << 16
+_ACK_COMPLETE = int(AckCode.ack_complete)
+_HEAP_SLACK = 256
+# Module-level names: looking a member up on an Enum class costs more than a global.
+_AWAIT, _COMPLETE, _RETRY = Step.await_response, Step.complete, Step.retry
+
+
+class Requester:
+    """Transactions from one node (``node_id``) to any others; see ``API.md``."""
+
+    def __init__(
+        self,
+        node_id: int = 0xFFC1,
+        generation: int = 0,
+        split_timeout: float = 0.100,
+        ack_timeout: float = 0.050,
+        max_busy_retries: int = 3,
+        busy_retry_delay: float = 0.001,
+        retry_protocol: str = "single",
+    ) -> None:
+        if retry_protocol not in ("single", "dual"):
+            raise ValueError(f"retry_protocol={retry_protocol!r}: expected 'single' or 'dual'")
+        self._node_id = node_id
+        self._generation = generation
+        self.split_timeout = split_timeout
+        self.ack_timeout = ack_timeout
+        self.max_busy_retries = max_busy_retries
+        self.busy_retry_delay = busy_retry_delay
+        self.retry_protocol = retry_protocol
+        self._labels = LabelPool()
+        self._next_tid = 1
+        self._transactions: dict[int, Transaction] = {}
+        #: (destination physical ID << 6 | label) -> the transaction holding it.
+        self._by_label: dict[int, Transaction] = {}
+        #: Same key -> the last transaction that held it, to explain late responses.
+        self._ended: dict[int, int] = {}
+        self._timers: list[tuple[float, int, int]] = []
+        self._outbox: list[AsyncPacket] = []
+        self._events: list[Event] = []
+
+    # -- state -------------------------------------------------------------------------
+    @property
+    def node_id(self) -> int:
+        return self._node_id
+
+    @property
+    def generation(self) -> int:
+        """The bus generation every packet in :meth:`packets_to_send` belongs to."""
+        return self._generation
+
+    @property
+    def outstanding(self) -> int:
+        return len(self._transactions)
+
+    def in_flight(self) -> dict[int, tuple[int, int]]:
+        """Outstanding transactions: id -> (destination ID, transaction label)."""
+        return {tid: (t.destination_id, t.label) for tid, t in self._transactions.items()}
+
+    # -- starting transactions ---------------------------------------------------------
+    def read_quadlet(self, destination_id: int, offset: int, now: float) -> int:
+        _check_offset(offset)
+        key, label = self._take_label(destination_id)
+        request = QuadletReadRequest(
+            destination_id=destination_id, tlabel=label, source_id=self._node_id, offset=offset
+        )
+        return self._start(key, label, request, -1, True, now)
+
+    def read_block(self, destination_id: int, offset: int, length: int, now: float) -> int:
+        _check_offset(offset)
+        if not 0 <= length < _LENGTH_LIMIT:
+            raise ValueError(f"block length {length} is outside 0..{_LENGTH_LIMIT - 1}")
+        key, label = self._take_label(destination_id)
+        request = BlockReadRequest(
+            destination_id=destination_id,
+            tlabel=label,
+            source_id=self._node_id,
+            offset=offset,
+            data_length=length,
+        )
+        return self._start(key, label, request, length, True, now)
+
+    def write_quadlet(self, destination_id: int, offset: int, value: int, now: float) -> int:
+        _check_offset(offset)
+        if not 0 <= value < 1 << 32:
+            raise ValueError(f"quadlet value {value:#x} does not fit 32 bits")
+        key, label = self._take_label(destination_id)
+        request = QuadletWriteRequest(
+            destination_id=destination_id,
+            tlabel=label,
+            source_id=self._node_id,
+            offset=offset,
+            quadlet_data=value,
+        )
+        return self._start(key, label, request, -1, False, now)
+
+    def write_block(self, destination_id: int, offset: int, data: bytes, now: float) -> int:
+        _check_offset(offset)
+        if len(data) >= _LENGTH_LIMIT:
+            raise ValueError(f"{len(data)} bytes do not fit a block write")
+        key, label = self._take_label(destination_id)
+        request = BlockWriteRequest(
+            destination_id=destination_id,
+            tlabel=label,
+            source_id=self._node_id,
+            offset=offset,
+            data=bytes(data),
+        )
+        return self._start(key, label, request, -1, False, now)
+
+    def lock(
+        self,
+        destination_id: int,
+        offset: int,
+        extended_tcode: int,
+        argument: bytes,
+        data: bytes,
+        now: float,
+    ) -> int:
+        """Start a lock; ``argument`` is empty for fetch_add and little_add."""
+        _check_offset(offset)
+        without_argument = extended_tcode in (ExtendedTCode.fetch_add, ExtendedTCode.little_add)
+        if without_argument and argument:
+            raise ValueError("fetch_add and little_add take no argument")
+        if not without_argument and len(argument) != len(data):
+            raise ValueError("the argument and the data of a lock must be equally long")
+        if not 1 <= extended_tcode <= 0xFFFF:
+            raise ValueError(f"extended tcode {extended_tcode:#x} is out of range")
+        key, label = self._take_label(destination_id)
+        request = LockRequest(
+            destination_id=destination_id,
+            tlabel=label,
+            source_id=self._node_id,
+            offset=offset,
+            extended_tcode=extended_tcode,
+            data=bytes(argument) + bytes(data),
+        )
+        # The old value is as long as the data operand; vendor-dependent locks may differ.
+        length = -1 if extended_tcode == ExtendedTCode.vendor_dependent else len(data)
+        return self._start(key, label, request, length, True, now)
+
+    def _take_label(self, destination_id: int) -> tuple[int, int]:
+        # Keyed by physical ID alone: a response may name the local bus as 0x3FF
+        # or by its number, and both must find the transaction.
+        key = destination_id & 0x3F
+        return key, self._labels.take(key, destination_id)
+
+    def _start(
+        self, key: int, label: int, request: Request, length: int, expects: bool, now: float
+    ) -> int:
+        tid = self._next_tid
+        self._next_tid = tid + 1
+        self._outbox.append(request)
+        if key == _BROADCAST_NODE and not expects:
+            # Nobody acks a broadcast: the write is complete once it is sent.
+            self._labels.give_back(key, label)
+            self._events.append(WriteCompleted(tid))
+            return tid
+        transaction = Transaction(tid, key, label, request, length, expects)
+        self._transactions[tid] = transaction
+        self._by_label[key << 6 | label] = transaction
+        self._wait(transaction, AWAIT_ACK, now + self.ack_timeout)
+        return tid
+
+    # -- output ------------------------------------------------------------------------
+    def packets_to_send(self) -> list[AsyncPacket]:
+        """Drain the packets to put on the wire, in order."""
+        packets, self._outbox = self._outbox, []
+        return packets
+
+    def events(self) -> list[Event]:
+        """Drain the events that happened since the last call."""
+        events, self._events = self._events, []
+        return events
+
+    # -- input -------------------------------------------------------------------------
+    def receive_ack(
+        self, destination_id: int, tlabel: int, ack_code: int | None, now: float
+    ) -> None:
+        """The ack that followed our request to ``destination_id`` with ``tlabel``.
+
+        ``ack_code=None`` reports that no ack came (the transport saw the ack gap pass).
+        """
+        key = (destination_id & 0x3F) << 6 | tlabel
+        transaction = self._by_label.get(key)
+        if transaction is None or transaction.state != AWAIT_ACK:
+            self._events.append(
+                UnexpectedAck(destination_id, tlabel, ack_code, "no request is waiting for an ack")
+            )
+            return
+        reaction = (
+            MISSING_ACK
+            if ack_code is None
+            else ON_ACK.get((transaction.expects_response, ack_code), MISSING_ACK)
+        )
+        step = reaction.step
+        if step is _AWAIT:
+            self._wait(transaction, AWAIT_RESPONSE, now + self.split_timeout)
+        elif step is _COMPLETE:
+            self._end(transaction, WriteCompleted(transaction.tid))
+        elif step is _RETRY:
+            assert ack_code is not None
+            self._retry(transaction, ack_code, now)
+        else:
+            assert reaction.reason is not None
+            detail = reaction.detail or _ack_name(ack_code)
+            self._fail(transaction, reaction.reason, detail=detail)
+
+    def receive_response(self, packet: AsyncPacket, now: float) -> int | None:
+        """Take a response; the ack to send back for it, or ``None`` if it is not ours.
+
+        Any response addressed to this node is acked ack_complete (the link accepts
+        it); one that answers no outstanding transaction becomes an
+        :class:`UnexpectedResponse` event and touches no transaction.
+        """
+        if not isinstance(packet, Response) or not same_node(packet.destination_id, self._node_id):
+            return None
+        key = (packet.source_id & 0x3F) << 6 | packet.tlabel
+        transaction = self._by_label.get(key)
+        if transaction is None or transaction.state != AWAIT_RESPONSE:
+            self._unexpected(packet, key, transaction)
+            return _ACK_COMPLETE
+        mismatch = mismatch_of(transaction, packet)
+        if mismatch:
+            self._fail(transaction, FailureReason.response_mismatch, detail=mismatch)
+        elif packet.rcode != RCode.resp_complete:
+            self._fail(transaction, FailureReason.rcode_error, rcode=packet.rcode)
+        else:
+            self._end(transaction, completion(transaction, packet))
+        return _ACK_COMPLETE
+
+    def _unexpected(self, packet: Response, key: int, transaction: Transaction | None) -> None:
+        where = f"node {packet.source_id:#06x} label {packet.tlabel}"
+        if transaction is not None:
+            waiting = "its ack" if transaction.state == AWAIT_ACK else "a busy retry"
+            detail = f"transaction {transaction.tid} to {where} is waiting for {waiting}"
+            self._events.append(UnexpectedResponse(packet, detail))
+            return
+        ended = self._ended.get(key)
+        if ended is None:
+            detail = f"no transaction to {where} (unsolicited)"
+        else:
+            detail = f"transaction {ended} to {where} has ended (late or duplicate)"
+        self._events.append(UnexpectedResponse(packet, detail, ended))
+
+    # -- time and bus resets -----------------------------------------------------------
+    def next_deadline(self) -> float | None:
+        """When :meth:`handle_timer` next has something to do; ``None``: nothing pending."""
+        self._drop_stale_timers()
+        return self._timers[0][0] if self._timers else None
+
+    def handle_timer(self, now: float) -> None:
+        """Act on every deadline that has passed at ``now``."""
+        timers = self._timers
+        while timers and timers[0][0] <= now:
+            _, tid, step = heapq.heappop(timers)
+            transaction = self._transactions.get(tid)
+            if transaction is None or transaction.step != step:
+                continue
+            if transaction.state == AWAIT_ACK:
+                self._fail(transaction, FailureReason.no_ack, detail="ack timeout")
+            elif transaction.state == AWAIT_RESPONSE:
+                self._fail(transaction, FailureReason.response_timeout, detail="split timeout")
+            else:
+                self._send_again(transaction, now)
+
+    def bus_reset(self, generation: int, node_id: int | None = None) -> None:
+        """A bus reset: every outstanding transaction fails; new ones use ``generation``."""
+        detail = f"bus generation {self._generation} -> {generation}"
+        for transaction in list(self._transactions.values()):
+            self._fail(transaction, FailureReason.bus_reset, detail=detail)
+        self._generation = generation
+        if node_id is not None:
+            self._node_id = node_id
+        # Unsent packets of the failed transactions go with them; broadcast writes,
+        # already reported complete and addressed to no node ID, still go out.
+        self._outbox = [p for p in self._outbox if _is_broadcast_write(p)]
+        self._timers.clear()
+        self._labels.release_all()
+
+    # -- internals ---------------------------------------------------------------------
+    def _wait(self, transaction: Transaction, state: int, deadline: float) -> None:
+        transaction.state = state
+        transaction.deadline = deadline
+        transaction.step += 1
+        heapq.heappush(self._timers, (deadline, transaction.tid, transaction.step))
+
+    def _retry(self, transaction: Transaction, ack: int, now: float) -> None:
+        if transaction.busy >= self.max_busy_retries:
+            self._fail(
+                transaction,
+                FailureReason.busy_retries_exhausted,
+                detail=f"{transaction.busy} retries, then {_ack_name(ack)}",
+            )
+            return
+        transaction.busy += 1
+        code = RETRY_CODES[(self.retry_protocol, ack)]
+        transaction.request = replace(transaction.request, retry=code)
+        if self.busy_retry_delay > 0:
+            self._wait(transaction, BUSY_WAIT, now + self.busy_retry_delay)
+        else:
+            self._send_again(transaction, now)
+
+    def _send_again(self, transaction: Transaction, now: float) -> None:
+        self._outbox.append(transaction.request)
+        self._wait(transaction, AWAIT_ACK, now + self.ack_timeout)
+
+    def _fail(
+        self,
+        transaction: Transaction,
+        reason: FailureReason,
+        *,
+        rcode: int | None = None,
+        detail: str = "",
+    ) -> None:
+        self._end(transaction, TransactionFailed(transaction.tid, reason, rcode, detail))
+
+    def _end(self, transaction: Transaction, event: Event) -> None:
+        key = transaction.key << 6 | transaction.label
+        del self._by_label[key]
+        del self._transactions[transaction.tid]
+        self._ended[key] = transaction.tid
+        self._labels.give_back(transaction.key, transaction.label)
+        self._events.append(event)
+        # Transactions mostly end in the order they started: dropping the stale
+        # timers at the top now keeps the heap as small as the work in flight.
+        self._drop_stale_timers()
+        if len(self._timers) > _HEAP_SLACK + 4 * len(self._transactions):
+            # One slow transaction on top can hide many stale entries below it.
+            self._timers = [
+                entry
+                for entry in self._timers
+                if (live := self._transactions.get(entry[1])) is not None and live.step == entry[2]
+            ]
+            heapq.heapify(self._timers)
+
+    def _drop_stale_timers(self) -> None:
+        timers, transactions = self._timers, self._transactions
+        while timers:
+            _, tid, step = timers[0]
+            transaction = transactions.get(tid)
+            if transaction is not None and transaction.step == step:
+                return
+            heapq.heappop(timers)
+
+
+def _is_broadcast_write(packet: AsyncPacket) -> bool:
+    return (
+        isinstance(packet, (QuadletWriteRequest, BlockWriteRequest))
+        and packet.destination_id & 0x3F == _BROADCAST_NODE
+    )
+
+
+def _ack_name(ack: int | None) -> str:
+    return "no ack" if ack is None else name_of(AckCode, ack)
+
+
+def _check_offset(offset: int) -> None:
+    if not 0 <= offset < _OFFSET_LIMIT:
+        raise ValueError(f"offset {offset:#x} does not fit 48 bits")
