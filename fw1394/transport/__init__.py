@@ -1,1 +1,15 @@
-"""fw1394.transport."""
+"""The virtual 1394 bus: processes on one multicast group behave like nodes on a cable.
+
+* :mod:`~fw1394.transport.config`: a bus name -> multicast group, UDP port, tag.
+* :mod:`~fw1394.transport.wire`: the tunnel's frame format.
+* :mod:`~fw1394.transport.bpf`, :mod:`~fw1394.transport.medium`: the socket and
+  the kernel filter that plays the link layer's address recognition.
+* :mod:`~fw1394.transport.membership`: bus resets, self-IDs, physical IDs (sans-IO).
+* :mod:`~fw1394.transport.station`: one member's plumbing (node or host).
+* :mod:`~fw1394.transport.host`, :mod:`~fw1394.transport.port`: the host side.
+* :mod:`~fw1394.transport.tap`: a promiscuous capture tap.
+* :mod:`~fw1394.transport.launch`, :mod:`~fw1394.transport.supervisor`,
+  :mod:`~fw1394.transport.runtime`: node processes in the background.
+
+``docs/virtual-bus.md`` describes the design, the wire format and the numbers.
+"""

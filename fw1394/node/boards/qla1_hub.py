@@ -4,7 +4,7 @@ A quadlet write of ``(sequence << 16) | board_mask`` to 0x1800 starts a
 "broadcast read": every board in the mask samples its real-time block and
 broadcasts it; the hub collects the blocks so the host can fetch them all
 with one block read of 0x1000 (or, in Ethernet-only mode, receive them
-unasked). Hub memory holds, for each board in the order its block came in,
+unasked). Hub memory holds, for each board in board-ID order,
 a header quadlet (block size including the header in 31..24, low byte of
 the sequence in 23..16, bit 15 set on a sequence mismatch, update time in
 14..0) and the block, plus one closing quadlet ({16-bit time of the last
@@ -107,7 +107,10 @@ class HubState:
     def image(self, now: int) -> list[int]:
         """Hub memory as the host reads it from 0x1000."""
         memory: list[int] = []
-        for block in self.blocks.values():
+        # Each board's block has a fixed slot, after those of the lower-numbered
+        # boards of the mask (hence 0x1803's lower-board mask): board order, not
+        # arrival order, which is also the order the host parses.
+        for _, block in sorted(self.blocks.items()):
             memory.append(block.header(self.sequence))
             memory.extend(block.quadlets)
         if self.complete:

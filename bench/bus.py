@@ -1,0 +1,334 @@
+"""Virtual-bus latency and throughput, next to a raw Python UDP ping-pong of the same run.
+
+    python bench/bus.py            # full run (about a minute on two cores)
+    python bench/bus.py --quick    # fewer samples and bus sizes
+    python bench/bus.py --json     # one JSON object instead of the report
+
+Measures, between this process (the host) and node processes on loopback:
+quadlet read and write round trips (p50, p99), 512-quadlet block reads
+(sequential, and pipelined four and sixteen deep), and quadlet-read latency as the bus
+grows to 63 members (62 nodes and the host). Targets from the issue are
+printed beside the results; they are not asserted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from typing import Any
+
+from fw1394.transport.config import BusConfig
+from fw1394.transport.medium import Medium
+from fw1394.transport.membership import Timing
+from fw1394.transport.port import BusPort
+from fw1394.transport.wire import FrameHeader, FrameKind
+
+BLOCK = 2048  # 512 quadlets
+NODE_COUNTS = (1, 2, 4, 8, 16, 32, 62)
+QUICK_COUNTS = (1, 8, 62)
+# Heartbeats are slowed down for the big buses: 62 Python processes starting at once
+# on two cores would otherwise miss leases and churn the bus while it is measured.
+TIMING_ARGS = ("--heartbeat", "0.2", "--lease", "3.0")
+TIMING = Timing(heartbeat=0.2, lease=3.0)
+
+
+def percentiles(samples: list[float]) -> dict[str, float]:
+    ordered = sorted(samples)
+    return {
+        "p50_us": round(ordered[len(ordered) // 2] * 1e6, 1),
+        "p99_us": round(ordered[int(len(ordered) * 0.99)] * 1e6, 1),
+    }
+
+
+def timed(action: Callable[[], object], count: int) -> list[float]:
+    samples = []
+    clock = time.perf_counter
+    for _ in range(count):
+        start = clock()
+        action()
+        samples.append(clock() - start)
+    return samples
+
+
+# -- raw UDP ping-pong --------------------------------------------------------------------
+ECHO = """
+import socket, sys
+s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+s.bind(("127.0.0.1", 0))
+print(s.getsockname()[1], flush=True)
+while True:
+    data, peer = s.recvfrom(4096)
+    if data == b"stop":
+        break
+    s.sendto(data, peer)
+"""
+
+
+def raw_ping_pong(count: int) -> dict[str, float]:
+    echo = subprocess.Popen([sys.executable, "-c", ECHO], stdout=subprocess.PIPE, text=True)
+    try:
+        assert echo.stdout is not None
+        port = int(echo.stdout.readline())
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        sock.bind(("127.0.0.1", 0))
+        peer = ("127.0.0.1", port)
+        payload = bytes(40)
+
+        def once() -> None:
+            sock.sendto(payload, peer)
+            sock.recv(4096)
+
+        timed(once, 200)
+        result = percentiles(timed(once, count))
+        sock.sendto(b"stop", peer)
+        sock.close()
+        return result
+    finally:
+        echo.wait(5)
+
+
+# -- mechanisms: why one multicast group with a kernel filter -----------------------------
+def _forked(loop: Callable[[], None]) -> int:
+    pid = os.fork()
+    if pid == 0:
+        try:
+            loop()
+        finally:
+            os._exit(0)
+    return pid
+
+
+def _group_socket(config: BusConfig, member_id: int, phy: int, filtered: bool) -> Medium:
+    medium = Medium(config)
+    if filtered:
+        medium.filter_as_member(member_id, phy, False)
+    else:
+        medium.filter_as_tap()  # passes every frame of the bus: no link-layer filtering
+    medium.set_poll_interval(medium.sock, 1.0)
+    return medium
+
+
+def multicast_ping_pong(idle: int, filtered: bool, count: int) -> dict[str, float]:
+    """Round trips between two group members while ``idle`` more members listen."""
+    config = BusConfig(f"mech{os.getpid()}")
+    # Physical IDs 1 (this process) and 2 (the echo) use member ids 101 and 102.
+    frame_to = {
+        phy: FrameHeader(FrameKind.async_packet, config.tag, 103 - phy, 0, 3 - phy, phy).pack()
+        for phy in (1, 2)
+    }
+
+    def listener(phy: int, echo: bool) -> Callable[[], None]:
+        def loop() -> None:
+            medium = _group_socket(config, 100 + phy, phy, filtered)
+            while True:
+                frame = medium.receive()
+                if echo and frame is not None and frame[17] == phy:
+                    medium.send(frame_to[1])
+
+        return loop
+
+    pids = [_forked(listener(10 + k, False)) for k in range(idle)]
+    me = _group_socket(config, 101, 1, filtered)
+    pids.append(_forked(listener(2, True)))
+    try:
+        time.sleep(0.3 + idle * 0.01)
+
+        me.set_poll_interval(me.sock, 0.5)
+
+        def once() -> None:
+            me.send(frame_to[2])
+            for _ in range(4):  # a datagram lost in a full queue costs 0.5 s, not a hang
+                frame = me.receive()
+                if frame is not None and frame[17] == 1:
+                    return
+
+        timed(once, 200)
+        return percentiles(timed(once, count))
+    finally:
+        for pid in pids:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+        me.close()
+
+
+def hub_relay(count: int) -> dict[str, float]:
+    """Round trips through a repeater process (host -> hub -> node -> hub -> host)."""
+    hub, host, node = (socket.socket(socket.AF_INET, socket.SOCK_DGRAM) for _ in range(3))
+    for sock in (hub, host, node):
+        sock.bind(("127.0.0.1", 0))
+
+    def relay() -> None:
+        while True:
+            data, peer = hub.recvfrom(4096)
+            hub.sendto(
+                data, node.getsockname() if peer == host.getsockname() else host.getsockname()
+            )
+
+    def echo() -> None:
+        while True:
+            node.sendto(node.recv(4096), hub.getsockname())
+
+    pids = [_forked(relay), _forked(echo)]
+    try:
+
+        def once() -> None:
+            host.sendto(bytes(40), hub.getsockname())
+            host.recv(4096)
+
+        timed(once, 200)
+        return percentiles(timed(once, count))
+    finally:
+        for pid in pids:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+
+
+def mechanisms(count: int) -> dict[str, Any]:
+    results: dict[str, Any] = {"unicast": raw_ping_pong(count), "hub_relay": hub_relay(count)}
+    for idle in (0, 6, 30, 61):
+        results[f"multicast_{idle}_idle"] = {
+            "unfiltered": multicast_ping_pong(idle, False, count),
+            "kernel_filter": multicast_ping_pong(idle, True, count),
+        }
+    return results
+
+
+# -- bus ------------------------------------------------------------------------------------
+class Nodes:
+    """Node processes of the bench's bus; they die with this process."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self.processes: list[subprocess.Popen[bytes]] = []
+
+    def grow(self, count: int) -> None:
+        while len(self.processes) < count:
+            rank = len(self.processes)
+            command = [sys.executable, "-m", "fw1394.cli.bus", "node", "run", "--name", self.name]
+            command += ["--rank", str(rank), "--board-id", str(rank % 16), "--quiet"]
+            command += ["--parent-pid", str(os.getpid()), *TIMING_ARGS]
+            self.processes.append(subprocess.Popen(command, stdin=subprocess.DEVNULL))
+
+    def stop(self) -> None:
+        for process in self.processes:
+            process.terminate()
+        for process in self.processes:
+            process.wait(10)
+
+
+def wait_for_nodes(port: BusPort, count: int, timeout: float = 120.0) -> None:
+    limit = time.monotonic() + timeout
+    while len(port.nodes()) < count:
+        if time.monotonic() > limit:
+            raise RuntimeError(f"only {len(port.nodes())} of {count} nodes joined")
+        port.poll(0.1)
+    port.poll(0.3)  # let the last self-ID phase and any stragglers settle
+
+
+def block_throughput(port: BusPort, count: int, depth: int) -> float:
+    """Effective Mbit/s of block reads with ``depth`` outstanding."""
+    start = time.perf_counter()
+    pending = [port.start_read_block(0, 0, BLOCK) for _ in range(depth)]
+    done = 0
+    while pending:
+        port.wait(pending.pop(0))
+        done += 1
+        if done + len(pending) < count:
+            pending.append(port.start_read_block(0, 0, BLOCK))
+    elapsed = time.perf_counter() - start
+    return round(done * BLOCK * 8 / elapsed / 1e6, 1)
+
+
+def run(quick: bool) -> dict[str, Any]:
+    samples = 2000 if quick else 10000
+    results: dict[str, Any] = {
+        "cpus": os.cpu_count(),
+        "load_average_before": os.getloadavg()[0],
+        "raw_udp": raw_ping_pong(samples),
+    }
+    name = f"bench{os.getpid()}"
+    nodes = Nodes(name)
+    try:
+        nodes.grow(1)
+        with BusPort(BusConfig(name), timing=TIMING) as port:
+            wait_for_nodes(port, 1)
+            timed(lambda: port.read_quadlet(0, 0), 500)
+            results["quadlet_read"] = percentiles(timed(lambda: port.read_quadlet(0, 0), samples))
+            results["quadlet_write"] = percentiles(
+                timed(lambda: port.write_quadlet(0, 0, 1), samples)
+            )
+            blocks = 500 if quick else 3000
+            results["block_read_mbit_s"] = {
+                "sequential": block_throughput(port, blocks, 1),
+                "pipelined_4": block_throughput(port, blocks, 4),
+                "pipelined_16": block_throughput(port, blocks, 16),
+            }
+            scaling = {}
+            for count in QUICK_COUNTS if quick else NODE_COUNTS:
+                nodes.grow(count)
+                wait_for_nodes(port, count)
+                timed(lambda: port.read_quadlet(0, 0), 200)
+                reads = timed(lambda: port.read_quadlet(0, 0), samples // 4)
+                scaling[str(count + 1)] = percentiles(reads)
+                scaling[str(count + 1)]["generation"] = port.generation
+            results["members_vs_read"] = scaling
+    finally:
+        nodes.stop()
+    return results
+
+
+def report(results: dict[str, Any]) -> None:
+    raw = results["raw_udp"]["p50_us"]
+    read = results["quadlet_read"]["p50_us"]
+    print(f"cpus: {results['cpus']}, load average before the run: {results['load_average_before']}")
+    print(f"raw Python UDP ping-pong    p50 {raw:7.1f} us  p99 {results['raw_udp']['p99_us']} us")
+    for kind in ("quadlet_read", "quadlet_write"):
+        row = results[kind]
+        print(f"{kind:<27} p50 {row['p50_us']:7.1f} us  p99 {row['p99_us']} us")
+    print(f"  read/raw ratio: {read / raw:.2f} (target <= 1.5; thesis hardware: 34.5 us mean)")
+    blocks = results["block_read_mbit_s"]
+    print(
+        f"512-quadlet block reads: {blocks['sequential']} Mbit/s sequential, "
+        f"{blocks['pipelined_4']} four deep, {blocks['pipelined_16']} sixteen deep "
+        "(target >= 400; thesis: 360)"
+    )
+    print("quadlet read vs members (nodes + host):")
+    scaling = results["members_vs_read"]
+    first = next(iter(scaling.values()))["p50_us"]
+    for members, row in scaling.items():
+        ratio = row["p50_us"] / first
+        p50, p99 = row["p50_us"], row["p99_us"]
+        print(f"  {members:>3}  p50 {p50:7.1f} us  p99 {p99:8.1f} us  x{ratio:.2f}")
+    print("  (target: 63 members within x2.00 of the smallest bus)")
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="fewer samples and bus sizes")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument(
+        "--mechanisms",
+        action="store_true",
+        help="compare transports (unicast, hub relay, multicast with and without filter)",
+    )
+    args = parser.parse_args()
+    if args.mechanisms:
+        print(json.dumps(mechanisms(2000 if args.quick else 5000), indent=1))
+        return 0
+    results = run(args.quick)
+    if args.json:
+        print(json.dumps(results))
+    else:
+        report(results)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,187 @@
+"""``fw1394 read|write|lock``: act as a host on a virtual bus for one transaction.
+
+The command joins the bus as a host (one bus reset), runs the transaction
+through the engine and leaves (another reset), as plugging a PC into a cable
+and unplugging it would.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+from fw1394.cli.bus import add_bus_options, add_member_options, bus_config, faults, timing
+from fw1394.cli.common import CliError, fail, integer, quadlets_hex
+from fw1394.packets import ExtendedTCode
+
+LOCK_OPERATIONS = {
+    name: int(ExtendedTCode[name])
+    for name in (
+        "mask_swap",
+        "compare_swap",
+        "fetch_add",
+        "little_add",
+        "bounded_add",
+        "wrap_add",
+    )
+}
+_NO_ARGUMENT = ("fetch_add", "little_add")
+EXAMPLES = {
+    "read": "examples:\n  fw1394 read 0 0x0\n  fw1394 read 1 0x100 --length 2048 --json\n",
+    "write": "examples:\n  fw1394 write 0 0x8 0x12345678\n  fw1394 write 2 0x100 1 2 3 4\n",
+    "lock": (
+        "examples:\n  fw1394 lock 0 0x10 compare_swap 0x0 0x1   (argument, then data)\n"
+        "  fw1394 lock 0 0x10 fetch_add 0x1\n"
+    ),
+}
+
+
+def register(subparsers: Any) -> None:
+    read = _parser(subparsers, "read", "read a quadlet or a block from a node")
+    read.add_argument("--length", type=integer, default=4, help="bytes (4: quadlet read)")
+    read.set_defaults(handler=run_read)
+    write = _parser(subparsers, "write", "write quadlets to a node")
+    write.add_argument("values", nargs="+", type=integer, metavar="VALUE", help="quadlets")
+    write.add_argument("--block", action="store_true", help="block write even for one quadlet")
+    write.set_defaults(handler=run_write)
+    lock = _parser(subparsers, "lock", "lock transaction (atomic read-modify-write)")
+    lock.add_argument("operation", choices=sorted(LOCK_OPERATIONS), metavar="OPERATION")
+    lock.add_argument("operands", nargs="+", type=integer, metavar="QUADLET")
+    lock.set_defaults(handler=run_lock)
+
+
+def _parser(subparsers: Any, name: str, text: str) -> argparse.ArgumentParser:
+    parser: argparse.ArgumentParser = subparsers.add_parser(
+        name,
+        help=text + " on a virtual bus",
+        description=text.capitalize() + " on a virtual 1394 bus, as a host.",
+        epilog=EXAMPLES[name],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("node", type=integer, metavar="NODE", help="physical ID (0-62)")
+    parser.add_argument("offset", type=integer, metavar="OFFSET", help="48-bit address offset")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--timeout", type=float, default=1.0, help="ack and response timeout (s)")
+    add_bus_options(parser)
+    add_member_options(parser)
+    return parser
+
+
+def _check(args: argparse.Namespace) -> None:
+    if not 0 <= args.offset < 1 << 48:
+        raise CliError(f"offset {args.offset:#x} does not fit 48 bits")
+    if not 0 <= args.node <= 63:
+        raise CliError(f"node {args.node} is not a physical ID (0-62, 63 is broadcast)")
+    if args.timeout <= 0:
+        raise CliError(f"--timeout {args.timeout} must be positive")
+
+
+def _quadlet(value: int) -> bytes:
+    if not 0 <= value < 1 << 32:
+        raise CliError(f"{value:#x} does not fit a quadlet (32 bits)")
+    return value.to_bytes(4, "big")
+
+
+def _transact(args: argparse.Namespace, what: str, action: Any) -> Any:
+    """Join the bus, check the node is there, run ``action(port)``, leave."""
+    from fw1394.transport.host import BusError, TransactionError
+    from fw1394.transport.port import BusPort
+
+    _check(args)
+    config = bus_config(args)
+    try:
+        port = BusPort(
+            config,
+            ack_timeout=args.timeout,
+            split_timeout=args.timeout,
+            timing=timing(args),
+            faults=faults(args),
+        )
+    except OSError as error:
+        raise CliError(f"cannot join bus {config.name!r}: {error}") from None
+    with port:
+        try:
+            nodes = dict(port.nodes())
+            if args.node != 63 and args.node not in nodes:
+                known = ", ".join(str(phy) for phy in sorted(nodes)) or "none"
+                raise CliError(
+                    f"no node {args.node} on bus {config.name!r} (nodes: {known}; "
+                    "is it up? fw1394 bus up --nodes N)"
+                )
+            return action(port)
+        except BusError as error:
+            raise CliError(str(error)) from None
+        except TransactionError as error:
+            raise _Failed(f"{what} of node {args.node} at {args.offset:#x}: {error}") from None
+
+
+class _Failed(Exception):
+    """A transaction that failed on the bus (exit status 1, not a usage error)."""
+
+
+def _report(args: argparse.Namespace, result: dict[str, Any], text: str) -> None:
+    print(json.dumps(result) if args.json else text)
+
+
+def run_read(args: argparse.Namespace) -> int:
+    if not 0 < args.length < 1 << 16:
+        raise CliError(f"--length {args.length} is outside 1..65535")
+    if args.node == 63:
+        raise CliError("reads cannot be broadcast (node 63)")
+
+    def action(port: Any) -> bytes:
+        if args.length == 4:
+            return int(port.read_quadlet(args.node, args.offset)).to_bytes(4, "big")
+        data: bytes = port.read_block(args.node, args.offset, args.length)
+        return data
+
+    try:
+        data = _transact(args, "read", action)
+    except _Failed as error:
+        return fail(str(error), 1)
+    result = {"node": args.node, "offset": args.offset, "length": len(data), "data": data.hex()}
+    _report(args, result, quadlets_hex(data))
+    return 0
+
+
+def run_write(args: argparse.Namespace) -> int:
+    data = b"".join(_quadlet(value) for value in args.values)
+
+    def action(port: Any) -> None:
+        if len(data) == 4 and not args.block:
+            port.write_quadlet(args.node, args.offset, args.values[0])
+        else:
+            port.write_block(args.node, args.offset, data)
+
+    try:
+        _transact(args, "write", action)
+    except _Failed as error:
+        return fail(str(error), 1)
+    result = {"node": args.node, "offset": args.offset, "length": len(data), "written": True}
+    _report(args, result, f"wrote {len(data)} bytes to node {args.node} at {args.offset:#x}")
+    return 0
+
+
+def run_lock(args: argparse.Namespace) -> int:
+    operation: str = args.operation
+    wanted = 1 if operation in _NO_ARGUMENT else 2
+    if len(args.operands) != wanted:
+        shape = "DATA" if wanted == 1 else "ARGUMENT DATA"
+        raise CliError(f"{operation} takes {shape} ({wanted} quadlets), not {len(args.operands)}")
+    operands = [_quadlet(value) for value in args.operands]
+    argument, data = (b"", operands[0]) if wanted == 1 else (operands[0], operands[1])
+    if args.node == 63:
+        raise CliError("locks cannot be broadcast (node 63)")
+
+    def action(port: Any) -> bytes:
+        old: bytes = port.lock(args.node, args.offset, LOCK_OPERATIONS[operation], argument, data)
+        return old
+
+    try:
+        old = _transact(args, "lock", action)
+    except _Failed as error:
+        return fail(str(error), 1)
+    result = {"node": args.node, "offset": args.offset, "operation": operation, "old": old.hex()}
+    _report(args, result, quadlets_hex(old))
+    return 0

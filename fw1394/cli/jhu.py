@@ -1,0 +1,245 @@
+"""``fw1394 jhu``: emulated JHU FPGA1394/QLA boards over Eth1394, and a host to test them.
+
+``serve`` runs boards in this process behind loopback UDP sockets; ``scan``,
+``quad``, ``block`` and ``rt`` act as the JHU host library does (start-up scan
+first, as every JHU host program does), against fw1394 boards or anything
+else that speaks Eth1394 on loopback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+from fw1394.cli.common import CliError, integer, print_table
+
+EXAMPLES = """\
+examples:
+  sudo fw1394 jhu serve --boards 4             4 QLA boards, firmware 8 (bridge), port 1394
+  fw1394 jhu serve --boards 2 --eth1394 127.0.0.1:11394     unprivileged port
+  fw1394 jhu scan -p udp:127.0.0.1:11394       the host's start-up scan
+  fw1394 jhu quad -p udp:127.0.0.1:11394 -b 0 4          read HARDWARE_VERSION of board 0
+  fw1394 jhu rt -p udp:127.0.0.1:11394 --cycles 1000     the host's real-time loop
+firmware >= 9 (Ethernet-only mode, multicast) only inside a network namespace:
+  ip netns add qla; ip -n qla link set lo up; ip -n qla route add 224.0.0.0/4 dev lo
+  ip netns exec qla fw1394 jhu serve --boards 4 --firmware 9
+"""
+
+
+def register(subparsers: Any) -> None:
+    jhu = subparsers.add_parser(
+        "jhu",
+        help="JHU FPGA1394/QLA boards over Eth1394 (UDP port 1394)",
+        description=__doc__,
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    actions = jhu.add_subparsers(dest="action", metavar="ACTION", required=True)
+    serve = actions.add_parser("serve", help="serve emulated boards on loopback UDP")
+    serve.add_argument("--boards", type=int, default=1, help="boards 0..N-1 (default 1)")
+    serve.add_argument("--board-ids", default=None, help="comma-separated board IDs instead")
+    serve.add_argument("--firmware", type=int, default=8, help="firmware revision (default 8)")
+    serve.add_argument("--fpga-version", type=int, default=3, choices=(1, 2, 3))
+    serve.add_argument(
+        "--eth1394",
+        default="127.0.0.1",
+        metavar="ADDRESS[:PORT]",
+        help="server IP the host is given (loopback only) and UDP port (default 1394)",
+    )
+    serve.add_argument(
+        "--git-description", type=integer, default=0, help="GIT_DESC register (default 0)"
+    )
+    serve.add_argument("--duration", type=float, default=None, help="stop after this many s")
+    serve.set_defaults(handler=run_serve)
+    for name, text in (
+        ("scan", "the host's start-up scan"),
+        ("quad", "read or write one quadlet, as quad1394eth does"),
+        ("block", "read or write a block, as block1394eth does"),
+        ("rt", "the host's real-time loop"),
+    ):
+        sub = actions.add_parser(name, help=text)
+        sub.add_argument(
+            "-p",
+            "--port",
+            dest="port_spec",
+            default="udp:127.0.0.1",
+            help="udp:IP[:PORT] or udpfw:IP[:PORT] (udpfw forces bridge mode)",
+        )
+        sub.add_argument("--json", action="store_true", help="JSON output")
+        sub.add_argument("-v", "--verbose", action="store_true", help="print the host's log")
+        if name in ("quad", "block"):
+            sub.add_argument("-b", "--board", type=int, default=0, help="board ID (default 0)")
+            sub.add_argument("address", type=integer, help="register offset (quadlet index)")
+        if name == "quad":
+            sub.add_argument("value", type=integer, nargs="?", help="write this value")
+        if name == "block":
+            sub.add_argument("count", type=integer, help="quadlets")
+            sub.add_argument("data", type=integer, nargs="*", help="quadlets to write")
+        if name == "rt":
+            sub.add_argument("--cycles", type=int, default=100)
+            sub.add_argument(
+                "--protocol", choices=("sequential", "broadcast-write", "broadcast-read-write")
+            )
+        sub.set_defaults(handler=run_host, action_name=name)
+
+
+def run_serve(args: argparse.Namespace) -> int:
+    from fw1394.jhu.addressing import AddressRefusedError, parse_endpoint
+    from fw1394.jhu.rack import Rack
+    from fw1394.jhu.server import Eth1394Server
+
+    try:
+        endpoint = parse_endpoint(args.eth1394)
+        ids = (
+            [int(part) for part in args.board_ids.split(",")]
+            if args.board_ids
+            else list(range(args.boards))
+        )
+        rack = Rack(
+            ids,
+            firmware=args.firmware,
+            fpga_version=args.fpga_version,
+            git_description=args.git_description,
+        )
+        server = Eth1394Server(rack, endpoint)
+    except (AddressRefusedError, ValueError) as error:
+        raise CliError(str(error)) from None
+    except PermissionError:
+        raise CliError(
+            f"cannot bind UDP port {endpoint.port}: run as root, grant CAP_NET_BIND_SERVICE "
+            "(setcap cap_net_bind_service=+ep on the Python binary), or pick another port "
+            "with --eth1394 127.0.0.1:PORT"
+        ) from None
+    except OSError as error:
+        raise CliError(f"cannot open the Eth1394 sockets: {error}") from None
+    mode = "Ethernet-only capable" if args.firmware >= 9 else "bridge"
+    print(
+        f"fw1394 jhu: {len(ids)} QLA boards {ids}, firmware {args.firmware} ({mode}), "
+        f"on {', '.join(server.addresses)}",
+        file=sys.stderr,
+    )
+    with server:
+        try:
+            if args.duration is None:
+                server.serve_forever()
+            else:
+                server.serve_for(args.duration)
+        except KeyboardInterrupt:
+            pass
+    return 0
+
+
+def _client(args: argparse.Namespace) -> Any:
+    from fw1394.jhu.addressing import AddressRefusedError, parse_endpoint
+    from fw1394.jhu.client import EthUdpClient
+
+    kind, _, rest = args.port_spec.partition(":")
+    if kind not in ("udp", "udpfw"):
+        raise CliError(f"-p {args.port_spec}: only udp:IP[:PORT] and udpfw:IP[:PORT]")
+    try:
+        endpoint = parse_endpoint(rest)
+        logger = (lambda text: print(text, file=sys.stderr)) if args.verbose else None
+        return EthUdpClient(endpoint, force_bridge=kind == "udpfw", log=logger)
+    except AddressRefusedError as error:
+        raise CliError(str(error)) from None
+
+
+def run_host(args: argparse.Namespace) -> int:
+    from fw1394.jhu.scan import start
+
+    with _client(args) as client:
+        scan = start(client)
+        if not scan.ok:
+            raise CliError("no boards found (run with -v to see the host's log)")
+        if args.action_name == "scan":
+            return _print_scan(scan, args.json)
+        if args.action_name == "rt":
+            return _run_rt(client, scan, args)
+        return _run_access(client, scan, args)
+
+
+def _print_scan(scan: Any, as_json: bool) -> int:
+    rows = [
+        {
+            "node": b.node,
+            "board_id": b.board_id,
+            "hardware": b.hardware.to_bytes(4, "big").decode("ascii", "replace"),
+            "firmware": b.firmware,
+            "fpga": b.fpga_version,
+        }
+        for b in scan.boards
+    ]
+    mode = "bridge" if scan.bridge else "ethernet-only"
+    if as_json:
+        print(json.dumps({"mode": mode, "hub_board": scan.hub_board, "boards": rows}))
+        return 0
+    print(f"mode {mode}, hub board {scan.hub_board}, protocol {scan.protocol.value}")
+    table: list[tuple[str, ...]] = [("NODE", "BOARD", "HARDWARE", "FIRMWARE", "FPGA")]
+    table += [tuple(str(row[key]) for key in ("node", "board_id", "hardware", "firmware", "fpga"))
+              for row in rows]  # fmt: skip
+    print_table(table, indent="")
+    return 0
+
+
+def _run_access(client: Any, scan: Any, args: argparse.Namespace) -> int:
+    try:
+        node = scan.node_of(args.board)
+    except KeyError as error:
+        raise CliError(str(error.args[0])) from None
+    if args.action_name == "quad":
+        if args.value is not None:
+            client.write_quadlet_node(node, args.address, args.value & 0xFFFFFFFF)
+            return 0
+        value = client.read_quadlet_node(node, args.address)
+        if value is None:
+            raise CliError("ReadQuadlet Failed")
+        print(json.dumps({"value": value}) if args.json else f"0x{value:08x}")
+        return 0
+    if args.data:
+        data = b"".join((v & 0xFFFFFFFF).to_bytes(4, "big") for v in args.data[: args.count])
+        if not client.write_block_node(node, args.address, data):
+            raise CliError("WriteBlock Failed")
+        return 0
+    block = client.read_block_node(node, args.address, 4 * args.count)
+    if block is None:
+        raise CliError("ReadBlock Failed")
+    words = [int.from_bytes(block[n : n + 4], "big") for n in range(0, len(block), 4)]
+    if args.json:
+        print(json.dumps({"quadlets": words}))
+    else:
+        for word in words:
+            print(f"0x{word:08x}")
+    return 0
+
+
+def _run_rt(client: Any, scan: Any, args: argparse.Namespace) -> int:
+    import time
+
+    from fw1394.jhu.realtime import RealTimeLoop
+    from fw1394.jhu.scan import Protocol
+
+    protocol = Protocol(args.protocol) if args.protocol else None
+    loop = RealTimeLoop(client, scan, protocol)
+    good = 0
+    started = time.monotonic()
+    for _ in range(args.cycles):
+        blocks = loop.cycle()
+        good += all(block is not None for block in blocks.values())
+    elapsed = time.monotonic() - started
+    assert loop.protocol is not None
+    result = {
+        "protocol": loop.protocol.value,
+        "cycles": args.cycles,
+        "complete": good,
+        "mean_cycle_ms": 1e3 * elapsed / max(args.cycles, 1),
+    }
+    if args.json:
+        print(json.dumps(result))
+    else:
+        print(
+            f"{args.cycles} cycles ({result['protocol']}): {good} complete, "
+            f"{result['mean_cycle_ms']:.3f} ms per cycle"
+        )
+    return 0 if good == args.cycles else 1

@@ -1,0 +1,144 @@
+"""A node process: one board (or plain memory) on the virtual bus.
+
+The loop is plain blocking I/O: receive a frame (the socket's receive timeout
+bounds the wait), answer requests through the engine's :class:`Responder`,
+and run the station's timers when they are due. A request is acked in one
+frame that also carries the response when the policy concatenates them (same
+bus tenure); a split response is a subaction of its own.
+"""
+
+from __future__ import annotations
+
+import signal
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from types import FrameType
+
+from fw1394.engine import THESIS_FPGA, Responder, ResponderPolicy
+from fw1394.node.space import TICKS_PER_SECOND, AddressSpace
+from fw1394.packets.fast import encode_packet
+from fw1394.transport.config import BusConfig
+from fw1394.transport.faults import FaultConfig
+from fw1394.transport.membership import BusReset, Refused, Timing
+from fw1394.transport.station import Station
+from fw1394.transport.wire import (
+    ACK_PAYLOAD,
+    NO_BOARD,
+    FrameHeader,
+    FrameKind,
+    ack_byte,
+)
+
+LOCAL_BUS = 0x3FF
+
+
+class BusRefusedError(RuntimeError):
+    """The coordinator would not take this node (the bus already has 63)."""
+
+
+@dataclass
+class NodeOptions:
+    config: BusConfig = field(default_factory=BusConfig)
+    board_id: int = NO_BOARD
+    rank: int | None = None
+    timing: Timing | None = None
+    faults: FaultConfig | None = None
+    policy: ResponderPolicy = THESIS_FPGA
+
+
+class Node:
+    """A station serving ``space`` through a responder."""
+
+    def __init__(self, space: AddressSpace, options: NodeOptions) -> None:
+        self.space = space
+        self.options = options
+        self.station = Station(
+            options.config,
+            rank=options.rank,
+            board_id=options.board_id,
+            timing=options.timing,
+            faults=options.faults,
+            drop_acks=True,
+        )
+        self.responder = Responder(node_id=LOCAL_BUS << 6 | 63, space=space, policy=options.policy)
+        self._epoch = time.monotonic()
+        self._running = True
+        #: Called with each bus reset this node takes part in (for logs).
+        self.on_reset: Callable[[BusReset], None] | None = None
+
+    def stop(self) -> None:
+        self._running = False
+
+    def run(self) -> None:
+        """Serve until :meth:`stop` (or a signal handler calling it)."""
+        station = self.station
+        try:
+            deadline = 0.0
+            while self._running:
+                frame = station.receive()
+                if frame is None:
+                    # Bus management (or a quiet poll): the responder must learn its new
+                    # physical ID before it answers the first packet of a new generation.
+                    self._apply_changes()
+                    deadline = min(deadline, station.next_deadline())
+                elif frame[0].kind == FrameKind.async_packet:
+                    self._on_packet(frame[0], frame[1])
+                now = time.monotonic()
+                if now >= deadline or now >= station.wake_by:
+                    station.service(now)
+                    self._apply_changes()
+                    deadline = station.next_deadline()
+        finally:
+            station.close()
+
+    def _apply_changes(self) -> None:
+        for change in self.station.changes():
+            if isinstance(change, BusReset):
+                self.responder.bus_reset(LOCAL_BUS << 6 | change.phy_id, change.generation)
+                if self.on_reset is not None:
+                    self.on_reset(change)
+            elif isinstance(change, Refused):
+                raise BusRefusedError(change.reason)
+
+    def _on_packet(self, header: FrameHeader, payload: bytes) -> None:
+        station = self.station
+        if header.generation != station.generation or station.phy_id is None:
+            return  # a packet of another generation never reaches a link after a reset
+        now = time.monotonic()
+        self.space.set_time(int((now - self._epoch) * TICKS_PER_SECOND))
+        reply = self.responder.receive(payload, now)
+        requester = header.sender_phy
+        if reply.ack is None:
+            if reply.response is not None:
+                station.send(FrameKind.async_packet, requester, encode_packet(reply.response))
+            return
+        tlabel = payload[2] >> 2 if len(payload) >= 3 else 0
+        response = b"" if reply.response is None else encode_packet(reply.response)
+        ack = ACK_PAYLOAD.pack(ack_byte(reply.ack), tlabel, 0, header.sequence)
+        if reply.concatenated:
+            station.send(FrameKind.ack, requester, ack + response)
+            return
+        station.send(FrameKind.ack, requester, ack)
+        if response:
+            station.send(FrameKind.async_packet, requester, response)
+
+
+def run_node(
+    space: AddressSpace,
+    options: NodeOptions,
+    on_reset: Callable[[BusReset], None] | None = None,
+) -> None:
+    """Run a node in the foreground until SIGINT or SIGTERM; leave the bus cleanly."""
+    node = Node(space, options)
+    node.on_reset = on_reset
+
+    def stop(signum: int, frame: FrameType | None) -> None:
+        node.stop()
+
+    previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        node.run()
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)

@@ -1,0 +1,101 @@
+"""The shared medium: one UDP socket in the bus's multicast group.
+
+Every member sends each frame once to the group; the kernel copies it to every
+member socket (on loopback, and over a LAN with ``ttl`` >= 1), which is what a
+1394 PHY's repeating of every packet gives a real bus.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import socket
+import struct
+import time
+
+from fw1394.transport import bpf
+from fw1394.transport.config import BusConfig
+
+#: Room for bursts (a 63-node self-ID phase, back-to-back block responses).
+RECEIVE_BUFFER = 1 << 21
+MAX_FRAME = 65_535
+#: Linux: deliver only the groups this socket joined, not every group on the host.
+IP_MULTICAST_ALL = 49
+SO_TIMESTAMPNS = 35
+_TIMESPEC = struct.Struct("@qq")
+
+
+class Medium:
+    """A socket bound to the bus group; ``poll_interval`` bounds a blocking receive."""
+
+    def __init__(self, config: BusConfig, poll_interval: float = 0.005) -> None:
+        self.config = config
+        self.destination = (config.group, config.port)
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        try:
+            self._configure(sock, poll_interval)
+        except OSError:
+            sock.close()
+            raise
+        self.sock = sock
+
+    def _configure(self, sock: socket.socket, poll_interval: float) -> None:
+        cfg = self.config
+        group = socket.inet_aton(cfg.group)
+        interface = socket.inet_aton(cfg.interface)
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, RECEIVE_BUFFER)
+        sock.setsockopt(socket.IPPROTO_IP, IP_MULTICAST_ALL, 0)
+        # Bound to the group address: datagrams of other groups on the port stay out.
+        sock.bind((cfg.group, cfg.port))
+        sock.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP, group + interface)
+        sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_IF, interface)
+        sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, cfg.ttl)
+        # The loopback device hands every datagram back to this host by itself; the
+        # extra copy IP_MULTICAST_LOOP makes would only cost time. On a LAN
+        # interface the loop is what lets members on the same host hear each other.
+        on_loopback = cfg.interface.startswith("127.")
+        sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_LOOP, 0 if on_loopback else 1)
+        self.set_poll_interval(sock, poll_interval)
+
+    @staticmethod
+    def set_poll_interval(sock: socket.socket, seconds: float) -> None:
+        # A kernel receive timeout instead of select(): one system call per frame.
+        micros = max(1, int(seconds * 1e6))
+        timeval = struct.pack("@ll", micros // 1_000_000, micros % 1_000_000)
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVTIMEO, timeval)
+
+    def filter_as_member(self, member_id: int, phy_id: int | None, drop_acks: bool) -> None:
+        bpf.attach(self.sock, self.config.tag, member_id, phy_id, drop_acks)
+
+    def filter_as_tap(self) -> None:
+        bpf.attach(self.sock, self.config.tag, None, None)
+        self.sock.setsockopt(socket.SOL_SOCKET, SO_TIMESTAMPNS, 1)
+
+    def send(self, frame: bytes) -> None:
+        # A full send queue is congestion on the bus: the frame is lost, as on a
+        # wire; the transaction layer's retries and timeouts deal with it.
+        with contextlib.suppress(BlockingIOError, InterruptedError):
+            self.sock.sendto(frame, self.destination)
+
+    def receive(self) -> bytes | None:
+        """The next frame, or None when the poll interval passes without one."""
+        try:
+            return self.sock.recv(MAX_FRAME)
+        except (BlockingIOError, InterruptedError):
+            return None
+
+    def receive_stamped(self) -> tuple[bytes, int] | None:
+        """The next frame and its kernel arrival time in ns (needs :meth:`filter_as_tap`)."""
+        try:
+            data, ancillary, _, _ = self.sock.recvmsg(MAX_FRAME, 64)
+        except (BlockingIOError, InterruptedError):
+            return None
+        for level, kind, value in ancillary:
+            if level == socket.SOL_SOCKET and kind == SO_TIMESTAMPNS:
+                seconds, nanos = _TIMESPEC.unpack(value[: _TIMESPEC.size])
+                return data, seconds * 1_000_000_000 + nanos
+        # No kernel stamp (it was not switched on): the arrival time is now.
+        return data, time.time_ns()
+
+    def close(self) -> None:
+        self.sock.close()

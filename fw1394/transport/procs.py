@@ -1,0 +1,47 @@
+"""Processes of this host: liveness, PID namespaces, dying with the parent."""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import os
+import signal
+import zlib
+
+PR_SET_PDEATHSIG = 1
+
+
+def process_alive(pid: int) -> bool:
+    """Whether ``pid`` runs (a zombie, dead but not yet reaped, counts as gone)."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as stat:
+            fields = stat.read().rsplit(b")", 1)[1].split()
+    except (FileNotFoundError, ProcessLookupError, IndexError):
+        return False
+    except PermissionError:
+        return True
+    return bool(fields) and fields[0] not in (b"Z", b"X")
+
+
+def pid_namespace() -> int:
+    """16-bit tag of this process's PID namespace (0 when it cannot be read)."""
+    try:
+        link = os.readlink("/proc/self/ns/pid")
+    except OSError:
+        return 0
+    return zlib.crc32(link.encode()) & 0xFFFF or 1
+
+
+def die_with_parent(parent_pid: int, sig: int = signal.SIGTERM) -> None:
+    """Have the kernel send ``sig`` to us when our parent exits (Linux).
+
+    Checked against ``parent_pid`` afterwards: a parent that died before the
+    call has already handed us to init, and then we must go now.
+    """
+    libc_name = ctypes.util.find_library("c")
+    if libc_name is None:
+        return
+    libc = ctypes.CDLL(libc_name, use_errno=True)
+    libc.prctl(PR_SET_PDEATHSIG, sig, 0, 0, 0)
+    if os.getppid() != parent_pid:
+        os.kill(os.getpid(), sig)

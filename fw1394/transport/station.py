@@ -1,0 +1,207 @@
+"""A bus member's plumbing: its socket, its membership, its outgoing frames.
+
+Both a node and a host are stations. The owner calls :meth:`Station.receive`
+in its loop (it blocks at most the poll interval), handles the data frames it
+returns, and calls :meth:`Station.service` whenever :meth:`Station.next_deadline`
+has passed; bus-management frames never reach the owner, their effects arrive
+as :meth:`Station.changes`.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+import os
+import secrets
+import time
+from itertools import count
+
+from fw1394.packets import Speed
+from fw1394.transport.config import BusConfig
+from fw1394.transport.faults import FaultConfig, FaultInjector
+from fw1394.transport.medium import Medium
+from fw1394.transport.membership import Change, Membership, Role, Timing
+from fw1394.transport.procs import pid_namespace, process_alive
+from fw1394.transport.wire import (
+    CONTROL_KINDS,
+    HEADER,
+    HEADER_SIZE,
+    MAGIC,
+    NO_BOARD,
+    NO_PHY,
+    VERSION,
+    FrameError,
+    FrameHeader,
+    FrameKind,
+    MemberInfo,
+    parse_header,
+)
+
+_FAULTED = frozenset({FrameKind.async_packet, FrameKind.ack})
+
+
+class Station:
+    """One member of the bus ``config.name``."""
+
+    def __init__(
+        self,
+        config: BusConfig,
+        *,
+        rank: int | None = None,
+        contender: bool = False,
+        host: bool = False,
+        board_id: int = NO_BOARD,
+        timing: Timing | None = None,
+        faults: FaultConfig | None = None,
+        poll_interval: float = 0.005,
+        drop_acks: bool = False,
+    ) -> None:
+        self.config = config
+        self._drop_acks = drop_acks
+        self._tag = config.tag
+        self.info = MemberInfo(
+            member_id=secrets.randbits(32) or 1,
+            rank=time.time_ns() if rank is None else rank,
+            contender=contender,
+            host=host,
+            board_id=board_id,
+            pid=os.getpid(),
+            address=config.interface,
+            pid_namespace=pid_namespace(),
+        )
+        self.medium = Medium(config, poll_interval)
+        self.medium.filter_as_member(self.info.member_id, None, drop_acks)
+        self.membership = Membership(self.info, time.monotonic(), timing)
+        self._filtered_phy: int | None = None
+        self._sequence = count(1)
+        self._injector = FaultInjector(faults) if faults and faults.active else None
+        self._delayed: list[tuple[float, int, bytes]] = []
+        #: When the earliest delayed frame is due: owners call :meth:`service` by then
+        #: (a plain attribute, read on every turn of their loops).
+        self.wake_by = math.inf
+        self._last_pid_check = 0.0
+
+    # -- state ------------------------------------------------------------------------
+    @property
+    def generation(self) -> int:
+        return self.membership.generation
+
+    @property
+    def phy_id(self) -> int | None:
+        return self.membership.phy_id
+
+    @property
+    def member_id(self) -> int:
+        return self.info.member_id
+
+    @property
+    def faults(self) -> FaultInjector | None:
+        return self._injector
+
+    def changes(self) -> list[Change]:
+        return self.membership.changes()
+
+    def next_deadline(self) -> float:
+        due = self.membership.next_deadline()
+        if self._delayed:
+            due = min(due, self._delayed[0][0])
+        return due
+
+    # -- sending ----------------------------------------------------------------------
+    def send(
+        self, kind: FrameKind, destination: int, payload: bytes, speed: int = Speed.S400
+    ) -> int:
+        """Put a frame on the bus; its sequence number (acks refer to it)."""
+        sequence = next(self._sequence) & 0xFFFFFFFF
+        membership = self.membership
+        phy = membership.phy_id
+        # Packed in place rather than through FrameHeader: this runs for every packet.
+        frame = (
+            HEADER.pack(
+                MAGIC,
+                VERSION,
+                kind,
+                self._tag,
+                self.info.member_id,
+                membership.generation & 0xFFFFFFFF,
+                NO_PHY if phy is None else phy,
+                destination,
+                speed,
+                0,
+                sequence,
+            )
+            + payload
+        )
+        if self._injector is None or kind not in _FAULTED:
+            self.medium.send(frame)
+            return sequence
+        now = time.monotonic()
+        for when in self._injector.send_times(now):
+            if when <= now:
+                self.medium.send(frame)
+            else:
+                heapq.heappush(self._delayed, (when, sequence, frame))
+                self.wake_by = min(self.wake_by, when)
+        return sequence
+
+    # -- receiving --------------------------------------------------------------------
+    def receive(self) -> tuple[FrameHeader, bytes] | None:
+        """The next data frame (async packet, ack, PHY packet), or None on a quiet poll."""
+        raw = self.medium.receive()
+        if raw is None:
+            return None
+        try:
+            header = parse_header(raw)
+        except FrameError:
+            return None  # not ours: nothing on a real bus answers line noise
+        payload = raw[HEADER_SIZE:]
+        if header.kind in CONTROL_KINDS or header.kind == FrameKind.phy_packet:
+            self.membership.receive(header, payload, time.monotonic())
+            self._flush_control()
+            if header.kind != FrameKind.phy_packet:
+                return None
+        return header, payload
+
+    def service(self, now: float | None = None) -> None:
+        """Timers: heartbeats, beacons, leases, delayed frames."""
+        now = time.monotonic() if now is None else now
+        while self._delayed and self._delayed[0][0] <= now:
+            self.medium.send(heapq.heappop(self._delayed)[2])
+        self.wake_by = self._delayed[0][0] if self._delayed else math.inf
+        membership = self.membership
+        # Only the coordinator acts on a death, so only it pays for looking.
+        coordinating = membership.role is Role.coordinator
+        if coordinating and now - self._last_pid_check >= membership.timing.heartbeat:
+            self._last_pid_check = now
+            self._check_local_processes(now)
+        membership.tick(now)
+        self._flush_control()
+
+    def _check_local_processes(self, now: float) -> None:
+        # Members on this host in this PID namespace: a dead process is noticed at
+        # once instead of after its lease (a crash is then a prompt bus reset).
+        me = self.info
+        for member in self.membership.members:
+            same_host = member.address == me.address and member.pid_namespace == me.pid_namespace
+            if same_host and member.pid and not process_alive(member.pid):
+                self.membership.mark_dead(member.member_id, now)
+
+    def _flush_control(self) -> None:
+        for out in self.membership.outgoing():
+            self.send(out.kind, out.destination, out.payload)
+        phy = self.membership.phy_id
+        if phy != self._filtered_phy:
+            self.medium.filter_as_member(self.info.member_id, phy, self._drop_acks)
+            self._filtered_phy = phy
+
+    def request_reset(self) -> None:
+        self.membership.request_reset(time.monotonic())
+        self._flush_control()
+
+    def close(self) -> None:
+        """Leave the bus (the others reset at once) and close the socket."""
+        try:
+            self.membership.leave()
+            self._flush_control()
+        finally:
+            self.medium.close()

@@ -1,0 +1,111 @@
+"""The process that keeps a background bus: it starts the node processes and ends them.
+
+Every node is started with ``--parent-pid`` of the supervisor and asks the
+kernel for SIGTERM when the supervisor goes, so stopping (or killing) the
+supervisor takes every node with it. Started by a test with ``--parent-pid``
+itself, the whole tree goes when the test process goes, however it ends.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from types import FrameType
+
+from fw1394.transport.procs import die_with_parent
+from fw1394.transport.runtime import NodeRecord, prepare, write_nodes
+
+#: Board IDs are the 4-bit rotary switch of the thesis boards.
+BOARD_ID_MODULUS = 16
+
+
+def parse_args(argv: list[str]) -> tuple[argparse.Namespace, list[str]]:
+    parser = argparse.ArgumentParser(prog="fw1394-bus-supervisor")
+    parser.add_argument("--name", required=True)
+    parser.add_argument("--nodes", type=int, required=True)
+    parser.add_argument("--board", default="memory")
+    parser.add_argument("--root", type=Path, default=None)
+    parser.add_argument("--parent-pid", type=int, default=None)
+    # Everything else (interface, timing, faults) is passed through to each node.
+    return parser.parse_known_args(argv)
+
+
+def node_command(args: argparse.Namespace, index: int, passthrough: list[str]) -> list[str]:
+    return [
+        sys.executable,
+        "-m",
+        "fw1394.cli.bus",
+        "node",
+        "run",
+        "--name",
+        args.name,
+        "--board",
+        args.board,
+        "--board-id",
+        str(index % BOARD_ID_MODULUS),
+        "--rank",
+        str(index),
+        "--parent-pid",
+        str(os.getpid()),
+        "--quiet",
+        *passthrough,
+    ]
+
+
+def main(argv: list[str]) -> int:
+    args, passthrough = parse_args(argv)
+    if args.parent_pid is not None:
+        die_with_parent(args.parent_pid)
+    stopping = False
+
+    def stop(signum: int, frame: FrameType | None) -> None:
+        nonlocal stopping
+        stopping = True
+
+    signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGINT, stop)
+    directory = prepare(args.name, args.root)
+    (directory / "supervisor.pid").write_text(str(os.getpid()))
+    children: list[subprocess.Popen[bytes]] = []
+    records: list[NodeRecord] = []
+    try:
+        for index in range(args.nodes):
+            if stopping:
+                break
+            child = subprocess.Popen(node_command(args, index, passthrough))
+            children.append(child)
+            records.append(NodeRecord(index, args.board, index % BOARD_ID_MODULUS, child.pid))
+        write_nodes(directory, records)
+        while not stopping:
+            time.sleep(0.1)
+            for child in children:
+                child.poll()  # reap crashed nodes; they stay down until the bus is restarted
+    finally:
+        _end(children)
+        for name in ("nodes.json", "supervisor.pid"):
+            with contextlib.suppress(FileNotFoundError):
+                (directory / name).unlink()
+    return 0
+
+
+def _end(children: list[subprocess.Popen[bytes]]) -> None:
+    for child in children:
+        if child.poll() is None:
+            child.terminate()
+    limit = time.monotonic() + 3.0
+    for child in children:
+        try:
+            child.wait(max(0.0, limit - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            child.kill()
+            child.wait()
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

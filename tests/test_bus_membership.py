@@ -1,0 +1,189 @@
+"""Bus management without sockets: membership state machines joined by a fake medium."""
+
+from __future__ import annotations
+
+import pytest
+
+from fw1394.packets import PortStatus, SelfIdPacket, decode
+from fw1394.transport.membership import BusReset, Membership, Refused, Role, Timing
+from fw1394.transport.wire import (
+    EVERY_MEMBER,
+    MAX_MEMBERS,
+    FrameHeader,
+    MemberInfo,
+)
+
+TIMING = Timing(heartbeat=0.1, lease=0.5, join_retry=0.05, settle=0.002, self_id_timeout=0.5)
+TAG = 0x1234
+
+
+class FakeBus:
+    """Every frame reaches every other live member; time moves in steps."""
+
+    def __init__(self) -> None:
+        self.now = 0.0
+        self.members: dict[int, Membership] = {}
+        self.dead: set[int] = set()
+
+    def add(self, rank: int, contender: bool = False, member_id: int | None = None) -> Membership:
+        member_id = member_id or 1000 + len(self.members)
+        info = MemberInfo(member_id, rank, contender=contender, host=contender)
+        membership = Membership(info, self.now, TIMING)
+        self.members[info.member_id] = membership
+        return membership
+
+    def kill(self, membership: Membership) -> None:
+        self.dead.add(membership.me.member_id)
+
+    def run(self, seconds: float, step: float = 0.01) -> None:
+        end = self.now + seconds
+        while self.now < end:
+            self.now += step
+            for member_id, membership in list(self.members.items()):
+                if member_id not in self.dead:
+                    membership.tick(self.now)
+            self.deliver()
+
+    def deliver(self) -> None:
+        moved = True
+        while moved:
+            moved = False
+            for member_id, sender in list(self.members.items()):
+                if member_id in self.dead:
+                    sender.outgoing()
+                    continue
+                for out in sender.outgoing():
+                    moved = True
+                    phy = 0xFF if sender.phy_id is None else sender.phy_id
+                    header = FrameHeader(
+                        out.kind, TAG, member_id, sender.generation, phy, out.destination
+                    )
+                    for other_id, other in self.members.items():
+                        if other_id == member_id or other_id in self.dead:
+                            continue
+                        wanted = out.destination in (EVERY_MEMBER, 63, other.phy_id)
+                        if wanted:
+                            other.receive(header, out.payload, self.now)
+
+    def live(self) -> list[Membership]:
+        return [m for i, m in self.members.items() if i not in self.dead]
+
+
+def settled(bus: FakeBus) -> tuple[int, tuple[MemberInfo, ...]]:
+    live = bus.live()
+    generations = {m.generation for m in live}
+    tables = {m.members for m in live}
+    assert len(generations) == 1 and len(tables) == 1, (generations, len(tables))
+    assert all(m.ready for m in live)
+    return generations.pop(), tables.pop()
+
+
+def test_ids_follow_rank_and_the_host_is_root() -> None:
+    bus = FakeBus()
+    nodes = [bus.add(rank) for rank in (2, 0, 1)]
+    bus.run(1.5)
+    host = bus.add(10**18, contender=True)
+    bus.run(0.5)
+    generation, members = settled(bus)
+    assert [m.rank for m in members] == [0, 1, 2, 10**18]
+    assert host.phy_id == 3
+    assert [n.phy_id for n in nodes] == [2, 0, 1]
+    assert sum(m.role is Role.coordinator for m in bus.live()) == 1
+    assert members[0].rank == 0 and nodes[1].role is Role.coordinator
+    assert generation >= 2
+
+
+def test_self_ids_describe_a_chain_with_the_root_at_the_end() -> None:
+    bus = FakeBus()
+    for rank in range(4):
+        bus.add(rank)
+    bus.run(2.0)
+    settled(bus)
+    packets = {phy: decode(raw) for phy, raw in bus.live()[0].self_ids.items()}
+    assert sorted(packets) == [0, 1, 2, 3]
+    for phy, packet in packets.items():
+        assert isinstance(packet, SelfIdPacket)
+        assert packet.phy_id == phy and packet.link_active
+        assert packet.gap_count == 0x3F
+        expected_parent = PortStatus.not_connected if phy == 3 else PortStatus.parent
+        assert packet.port0 == expected_parent
+        assert packet.port1 == (PortStatus.child if phy else PortStatus.not_connected)
+
+
+def test_a_silent_member_is_dropped_and_the_generation_moves_on() -> None:
+    bus = FakeBus()
+    nodes = [bus.add(rank) for rank in range(3)]
+    bus.run(1.5)
+    before, _ = settled(bus)
+    bus.kill(nodes[1])
+    bus.run(1.0)
+    after, members = settled(bus)
+    assert after > before
+    assert [m.rank for m in members] == [0, 2]
+    assert nodes[2].phy_id == 1
+
+
+def test_the_next_member_takes_over_when_the_coordinator_dies() -> None:
+    bus = FakeBus()
+    nodes = [bus.add(rank) for rank in range(3)]
+    bus.run(1.5)
+    bus.kill(nodes[0])
+    bus.run(1.5)
+    _, members = settled(bus)
+    assert [m.rank for m in members] == [1, 2]
+    assert nodes[1].role is Role.coordinator
+
+
+def test_a_returning_member_with_the_lowest_rank_becomes_coordinator_again() -> None:
+    bus = FakeBus()
+    nodes = [bus.add(rank) for rank in range(3)]
+    bus.run(1.5)
+    bus.kill(nodes[0])
+    bus.run(1.5)
+    back = bus.add(0, member_id=5000)
+    bus.run(1.0)
+    _, members = settled(bus)
+    assert [m.rank for m in members] == [0, 1, 2]
+    assert back.role is Role.coordinator and back.phy_id == 0
+
+
+def test_a_reset_request_bumps_the_generation_only() -> None:
+    bus = FakeBus()
+    nodes = [bus.add(rank) for rank in range(2)]
+    bus.run(1.5)
+    before, members = settled(bus)
+    nodes[1].request_reset(bus.now)
+    bus.run(0.3)
+    after, again = settled(bus)
+    assert after == before + 1 and again == members
+    changes = [c for c in nodes[1].changes() if isinstance(c, BusReset)]
+    assert changes[-1].initiator == nodes[1].me.member_id
+
+
+def test_the_sixty_fourth_member_is_refused() -> None:
+    bus = FakeBus()
+    everyone = [bus.add(rank) for rank in range(MAX_MEMBERS)]
+    bus.run(2.0)
+    _, members = settled(bus)
+    assert len(members) == MAX_MEMBERS
+    extra = bus.add(1000)
+    bus.run(0.3)
+    refusals = [c for c in extra.changes() if isinstance(c, Refused)]
+    assert refusals and "63" in refusals[0].reason
+    assert all(m.phy_id is not None for m in everyone)
+
+
+@pytest.mark.parametrize("ranks", [(5, 3), (3, 5)])
+def test_two_lone_coordinators_merge(ranks: tuple[int, int]) -> None:
+    bus = FakeBus()
+    first = bus.add(ranks[0])
+    bus.run(1.0)
+    # A second bus founded while the first one's beacons did not reach it.
+    second = Membership(MemberInfo(77, ranks[1]), bus.now, TIMING)
+    second.tick(bus.now + TIMING.lease)
+    second.outgoing()
+    bus.members[77] = second
+    bus.run(1.5)
+    _, members = settled(bus)
+    assert sorted(m.rank for m in members) == sorted(ranks)
+    assert first.generation == second.generation

@@ -1,0 +1,76 @@
+"""Shared helpers of the bus tests: unique bus names, node processes, leftovers."""
+
+from __future__ import annotations
+
+import itertools
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from fw1394.transport.procs import process_alive
+
+_counter = itertools.count()
+PREFIX = f"fwtest{os.getpid()}"
+
+
+def bus_name(tag: str) -> str:
+    """A bus name no other test run on this machine uses."""
+    return f"{PREFIX}-{tag}-{next(_counter)}"
+
+
+def node_command(name: str, rank: int, *extra: str) -> list[str]:
+    return [
+        sys.executable,
+        "-m",
+        "fw1394.cli.bus",
+        "node",
+        "run",
+        "--name",
+        name,
+        "--rank",
+        str(rank),
+        "--board-id",
+        str(rank),
+        "--parent-pid",
+        str(os.getpid()),
+        "--quiet",
+        *extra,
+    ]
+
+
+def start_node(name: str, rank: int, *extra: str) -> subprocess.Popen[bytes]:
+    return subprocess.Popen(node_command(name, rank, *extra), stdin=subprocess.DEVNULL)
+
+
+def stop(process: subprocess.Popen[bytes]) -> None:
+    if process.poll() is None:
+        process.terminate()
+        try:
+            process.wait(5)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+
+
+def processes_mentioning(text: str) -> list[int]:
+    """Live processes whose command line contains ``text``."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            cmdline = (entry / "cmdline").read_bytes()
+        except OSError:
+            continue
+        if text.encode() in cmdline and process_alive(int(entry.name)):
+            found.append(int(entry.name))
+    return found
+
+
+def wait_until_gone(text: str, seconds: float = 5.0) -> list[int]:
+    limit = time.monotonic() + seconds
+    while (left := processes_mentioning(text)) and time.monotonic() < limit:
+        time.sleep(0.05)
+    return left
