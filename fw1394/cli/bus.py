@@ -155,7 +155,12 @@ def register(subparsers: Any) -> None:
     add_bus_options(up)
     add_member_options(up)
     up.add_argument("--nodes", type=int, required=True, help=f"1..{MAX_MEMBERS}")
-    up.add_argument("--board", default="memory", help="board kind (default: memory)")
+    up.add_argument(
+        "--board",
+        default="memory",
+        help="board kind, or kinds separated by commas given to the nodes in turn "
+        "(default: memory)",
+    )
     add_eth1394_options(up)  # JHU Eth1394 (fw1394.jhu.busnode)
     up.add_argument("--timeout", type=float, default=60.0, help="seconds to wait for the nodes")
     up.add_argument("--json", action="store_true", help="JSON lines instead of a table")
@@ -221,7 +226,8 @@ def bus_up(args: argparse.Namespace) -> int:
             f"fw1394: note: {MAX_MEMBERS} nodes fill the bus; a host cannot join it",
             file=sys.stderr,
         )
-    _check_board(args.board)
+    for kind in args.board.split(","):
+        _check_board(kind)
     node_arguments = (*member_arguments(args),)
     # -- JHU Eth1394 (fw1394.jhu.busnode): qla1 firmware and Ethernet cabling --
     try:

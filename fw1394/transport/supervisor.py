@@ -36,6 +36,12 @@ def parse_args(argv: list[str]) -> tuple[argparse.Namespace, list[str]]:
     return parser.parse_known_args(argv)
 
 
+def board_of(boards: str, index: int) -> str:
+    """Node ``index``'s board kind: ``boards`` is one kind or a comma-separated cycle."""
+    kinds = boards.split(",")
+    return kinds[index % len(kinds)]
+
+
 def node_command(args: argparse.Namespace, index: int, passthrough: list[str]) -> list[str]:
     return [
         sys.executable,
@@ -46,7 +52,7 @@ def node_command(args: argparse.Namespace, index: int, passthrough: list[str]) -
         "--name",
         args.name,
         "--board",
-        args.board,
+        board_of(args.board, index),
         "--board-id",
         str(index % BOARD_ID_MODULUS),
         "--rank",
@@ -80,7 +86,8 @@ def main(argv: list[str]) -> int:
                 break
             child = subprocess.Popen(node_command(args, index, passthrough))
             children.append(child)
-            records.append(NodeRecord(index, args.board, index % BOARD_ID_MODULUS, child.pid))
+            board = board_of(args.board, index)
+            records.append(NodeRecord(index, board, index % BOARD_ID_MODULUS, child.pid))
         write_nodes(directory, records)
         while not stopping:
             time.sleep(0.1)

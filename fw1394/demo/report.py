@@ -1,0 +1,95 @@
+"""The demo's summary numbers and its plot of commanded versus measured positions."""
+
+from __future__ import annotations
+
+import math
+import statistics
+from pathlib import Path
+from typing import Any
+
+from fw1394.demo.run import DemoResult
+from fw1394.node.boards.snake2010_spec import ENCODER_MIDPOINT
+
+
+def percentile(values: list[float], share: float) -> float:
+    """The ``share`` quantile (0..1) by nearest rank; NaN for no values."""
+    if not values:
+        return math.nan
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, max(0, math.ceil(share * len(ordered)) - 1))]
+
+
+def tracking_errors(result: DemoResult) -> list[float]:
+    """RMS of commanded minus measured position per axis (counts), over the samples."""
+    axes = len(result.commanded[0]) if result.commanded else 0
+    return [
+        math.sqrt(
+            statistics.fmean(
+                (c[axis] - m[axis]) ** 2
+                for c, m in zip(result.commanded, result.measured, strict=True)
+            )
+        )
+        for axis in range(axes)
+    ]
+
+
+def summary(result: DemoResult) -> dict[str, Any]:
+    """The numbers the demo prints (microseconds for times)."""
+    micro = 1e6
+    return {
+        "bus": result.bus_name,
+        "cycles": result.cycles,
+        "seconds": round(result.seconds, 3),
+        "rate_hz": round(result.cycles / result.seconds, 1) if result.seconds else 0.0,
+        "period_us": {
+            name: round(percentile(result.periods, share) * micro, 1)
+            for name, share in (("p50", 0.5), ("p99", 0.99), ("max", 1.0))
+        },
+        "cycle_bus_time_us": {
+            name: round(percentile(result.cycle_bus_times, share) * micro, 1)
+            for name, share in (("p50", 0.5), ("p99", 0.99), ("max", 1.0))
+        },
+        "transactions_per_cycle": 4,
+        "overruns": result.overruns,
+        "watchdog_trips": result.watchdog_trips,
+        "bus_resets": result.bus_resets,
+        "tracking_rms_counts": [round(e, 1) for e in tracking_errors(result)],
+    }
+
+
+def plot(result: DemoResult, path: Path) -> None:
+    """Commanded (dashed) and measured (solid) position of every axis over time."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    axes_count = len(result.commanded[0])
+    columns = 4
+    rows = math.ceil(axes_count / columns)
+    figure, grid = plt.subplots(rows, columns, figsize=(13, 2.4 * rows), sharex=True)
+    flat = list(grid.flat)
+    for axis in range(axes_count):
+        panel = flat[axis]
+        commanded = [c[axis] - ENCODER_MIDPOINT for c in result.commanded]
+        measured = [m[axis] - ENCODER_MIDPOINT for m in result.measured]
+        panel.plot(result.times, commanded, "--", color="tab:gray", label="commanded")
+        panel.plot(result.times, measured, color="tab:blue", label="measured")
+        board = "actuation" if axis < 7 else "Z-Theta"
+        panel.set_title(
+            f"axis {axis + 1} ({board} ch {axis % 7 + 1 if axis < 7 else axis - 6})", fontsize=9
+        )
+        panel.tick_params(labelsize=7)
+    for panel in flat[axes_count:]:
+        panel.axis("off")
+    flat[0].legend(fontsize=7)
+    for panel in flat[-columns:]:
+        panel.set_xlabel("time (s)", fontsize=8)
+    figure.suptitle(
+        f"fw1394 demo: 11 axes at {result.cycles / max(result.seconds, 1e-9):.0f} Hz over the "
+        "virtual 1394 bus (encoder counts from midpoint)",
+        fontsize=10,
+    )
+    figure.tight_layout()
+    figure.savefig(path, dpi=90)
+    plt.close(figure)

@@ -1,0 +1,58 @@
+"""``fw1394 demo`` end to end, as the README runs it: real processes, a real bus."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from test_bus_support import processes_mentioning
+
+
+def test_demo_runs_servos_plots_and_cleans_up(tmp_path: Path) -> None:
+    plot = tmp_path / "demo.png"
+    started = time.monotonic()
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "fw1394.cli.main",
+            "demo",
+            "--seconds",
+            "1.5",
+            "--json",
+            "--plot",
+            str(plot),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=90,
+        cwd=tmp_path,
+    )
+    elapsed = time.monotonic() - started
+    assert result.returncode == 0, result.stderr
+    numbers = json.loads(result.stdout)
+    # The loop ran on both boards for the whole time, close to its rate.
+    assert numbers["seconds"] >= 1.5
+    assert numbers["cycles"] > 300
+    assert len(numbers["tracking_rms_counts"]) == 11
+    # The motors follow trajectories of 1,500-6,000 counts: a broken loop (no
+    # motion, wrong sign, wrong axis) would leave errors of the amplitude's size.
+    assert max(numbers["tracking_rms_counts"]) < 1500
+    assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    bus = numbers["bus"]
+    assert not processes_mentioning(bus), "demo left processes behind"
+    print(f"\ndemo: {numbers['rate_hz']} Hz, {elapsed:.1f} s wall")
+
+
+def test_demo_rejects_bad_arguments() -> None:
+    result = subprocess.run(
+        [sys.executable, "-m", "fw1394.cli.main", "demo", "--seconds", "-1"],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert result.returncode == 2
+    assert result.stderr.strip().startswith("fw1394: error: --seconds")
