@@ -1,0 +1,78 @@
+"""Flat bit-field tables read out of ``construct`` structs.
+
+The dissector generators (Lua, scapy) and the numpy decoders need to know
+where each field sits; they read it from the one ``construct`` definition
+of a header instead of repeating it. Only the building blocks the framing
+structs use are understood: byte-level integers and ``BitStruct`` bytes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Any
+
+import construct
+
+
+@dataclass(frozen=True)
+class FlatField:
+    """``width`` bits ending at bit ``lsb`` of the big-endian unit at ``byte_offset``."""
+
+    name: str
+    byte_offset: int
+    byte_size: int
+    msb: int
+    width: int
+
+    @property
+    def lsb(self) -> int:
+        return self.msb - self.width + 1
+
+    @property
+    def mask(self) -> int:
+        return (1 << self.width) - 1
+
+    @property
+    def is_whole_unit(self) -> bool:
+        return self.width == 8 * self.byte_size
+
+
+def _is_bit_struct(subcon: Any) -> bool:
+    return isinstance(subcon, construct.Transformed) and isinstance(subcon.subcon, construct.Struct)
+
+
+def flatten(struct: construct.Struct, prefix: str = "") -> list[FlatField]:
+    """Every field of ``struct`` in wire order; bit fields get ``parent.child`` names."""
+    return list(_walk(struct, prefix))
+
+
+def _walk(struct: construct.Struct, prefix: str) -> Iterator[FlatField]:
+    offset = 0
+    for renamed in struct.subcons:
+        subcon = renamed.subcon
+        name = prefix + renamed.name
+        size = subcon.sizeof()
+        if _is_bit_struct(subcon):
+            msb = 8 * size - 1
+            for bit in subcon.subcon.subcons:
+                width = bit.subcon.sizeof()
+                yield FlatField(f"{name}.{bit.name}", offset, size, msb, width)
+                msb -= width
+        elif isinstance(subcon, construct.Struct):
+            for inner in _walk(subcon, f"{name}."):
+                yield FlatField(
+                    inner.name, offset + inner.byte_offset, inner.byte_size, inner.msb, inner.width
+                )
+        else:
+            yield FlatField(name, offset, size, 8 * size - 1, 8 * size)
+        offset += size
+
+
+def struct_format(struct: construct.Struct) -> str:
+    """A big-endian :mod:`struct` format with one integer per byte-level unit."""
+    codes = {1: "B", 2: "H", 4: "I", 8: "Q"}
+    units: dict[int, int] = {}
+    for field in flatten(struct):
+        units[field.byte_offset] = field.byte_size
+    return ">" + "".join(codes[units[offset]] for offset in sorted(units))

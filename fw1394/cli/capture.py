@@ -1,0 +1,138 @@
+"""``fw1394 capture``: record a virtual bus, or Eth1394 UDP traffic, into a trace file."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+from collections.abc import Callable
+from types import FrameType
+from typing import TYPE_CHECKING
+
+from fw1394.cli.common import CliError
+
+if TYPE_CHECKING:
+    from fw1394.transport.tap import BusTap
+
+EPILOG = """\
+examples:
+  fw1394 capture -w trace.pcapng                    bus "default", until Ctrl-C
+  fw1394 capture --bus arm -w arm.pcapng --duration 10
+  fw1394 capture --udp --interface eth0 -w boards.pcapng --count 1000
+  fw1394 dissect trace.pcapng                       read it back
+
+A bus trace uses fw1394's pcap link type (docs/capture-format.md); a UDP
+trace holds the Ethernet frames as they were, like tcpdump would write them.
+"""
+
+
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    parser = subparsers.add_parser(
+        "capture",
+        help="record a virtual bus (or Eth1394 UDP traffic) into a pcapng file",
+        description="Record a virtual 1394 bus, or Eth1394 UDP traffic, into a trace file.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("-w", "--write", required=True, metavar="FILE", help="trace file to write")
+    parser.add_argument("--bus", default=None, help="virtual bus name (default: default)")
+    parser.add_argument("--udp", action="store_true", help="capture Eth1394 UDP traffic instead")
+    parser.add_argument("--port", type=int, default=1394, help="UDP port (default 1394)")
+    parser.add_argument(
+        "--interface", default="lo", help="network interface for --udp (default lo)"
+    )
+    parser.add_argument("--duration", type=float, help="stop after this many seconds")
+    parser.add_argument("--count", type=int, help="stop after this many packets")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no line per packet")
+    parser.add_argument("--pcap", action="store_true", help="classic pcap instead of pcapng")
+    parser.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from fw1394.capture import live
+    from fw1394.capture.pcapng import LINKTYPE_ETHERNET, PcapngWriter, PcapWriter
+    from fw1394.capture.pseudo_header import LINKTYPE_FW1394
+
+    if args.udp and args.bus:
+        raise CliError("--bus and --udp are two different captures: choose one")
+    if args.duration is not None and args.duration <= 0:
+        raise CliError("--duration must be positive")
+    if args.count is not None and args.count <= 0:
+        raise CliError("--count must be positive")
+    if not 0 < args.port < 65536:
+        raise CliError(f"--port {args.port} is not a UDP port")
+    container = "pcap" if args.pcap or args.write.endswith(".pcap") else "pcapng"
+    linktype = LINKTYPE_ETHERNET if args.udp else LINKTYPE_FW1394
+    source = _open_tap(args.bus or "default") if not args.udp else None
+    try:
+        stream = open(args.write, "wb")  # noqa: SIM115 - the writer closes it
+    except OSError as error:
+        if source is not None:
+            source.close()
+        raise CliError(f"{args.write}: {error.strerror or error}") from None
+    writer: PcapngWriter | PcapWriter
+    if container == "pcap":
+        writer = PcapWriter(stream, linktype)
+    else:
+        description = "Eth1394 UDP" if args.udp else f"fw1394 virtual bus {args.bus or 'default'}"
+        writer = PcapngWriter(
+            stream,
+            linktype,
+            interface_name=args.interface if args.udp else "fw1394",
+            description=description,
+        )
+    stop = threading.Event()
+    previous = _stop_on_signals(stop)
+    limits = live.Limits(stop, args.duration, args.count)
+    show = None if args.quiet else _printer()
+    try:
+        if args.udp:
+            count = live.capture_udp(args.interface, (args.port,), writer, limits, show)
+        else:
+            assert source is not None
+            with source:
+                count = live.capture_records(source, writer, limits, show)
+    except live.CaptureError as error:
+        raise CliError(str(error)) from None
+    finally:
+        writer.close()
+        _restore(previous)
+    print(f"fw1394: {count} packets written to {args.write}", file=sys.stderr)
+    return 0
+
+
+def _open_tap(bus: str) -> BusTap:
+    try:
+        from fw1394.transport.tap import BusTap
+    except ImportError as error:
+        raise CliError(f"virtual bus capture is not available: {error}") from None
+    try:
+        return BusTap(bus)
+    except (OSError, ValueError) as error:
+        raise CliError(f"cannot tap bus {bus!r}: {error}") from None
+
+
+def _printer() -> Callable[[str], None]:
+    def show(line: str) -> None:
+        print(line, flush=True)
+
+    return show
+
+
+Handlers = dict[int, Callable[[int, FrameType | None], object] | int | None]
+
+
+def _stop_on_signals(stop: threading.Event) -> Handlers:
+    def handler(number: int, frame: FrameType | None) -> None:
+        stop.set()
+
+    previous: Handlers = {}
+    for number in (signal.SIGINT, signal.SIGTERM):
+        previous[number] = signal.signal(number, handler)
+    return previous
+
+
+def _restore(previous: Handlers) -> None:
+    for number, handler in previous.items():
+        signal.signal(number, handler)

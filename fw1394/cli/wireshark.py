@@ -1,0 +1,34 @@
+"""``fw1394 wireshark-dissector``: print the Lua dissector for fw1394 traces and Eth1394."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+EPILOG = """\
+examples:
+  fw1394 wireshark-dissector > fw1394.lua
+  wireshark -X lua_script:fw1394.lua trace.pcapng
+  tshark -X lua_script:fw1394.lua -r trace.pcapng -T fields -e fw1394.tcode -e fw1394.tlabel
+
+The dissector is generated from fw1394's packet layouts; it registers for
+fw1394's link type (LINKTYPE_USER0, 147) and for UDP port 1394 (JHU Eth1394).
+"""
+
+
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    parser = subparsers.add_parser(
+        "wireshark-dissector",
+        help="print a Wireshark Lua dissector for fw1394 traces and Eth1394",
+        description="Print a Wireshark Lua dissector for fw1394 traces and Eth1394 over UDP.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from fw1394.capture.lua import generate
+
+    sys.stdout.write(generate())
+    return 0
