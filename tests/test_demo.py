@@ -42,6 +42,13 @@ def test_demo_runs_servos_plots_and_cleans_up(tmp_path: Path) -> None:
     # motion, wrong sign, wrong axis) would leave errors of the amplitude's size.
     assert max(numbers["tracking_rms_counts"]) < 1500
     assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # The tap recorded the run, and the dissector saw the thesis board's behaviour:
+    # block reads answered in the same tenure, block writes completed by their ack.
+    traffic = numbers["traffic"]
+    assert traffic["errors"]["total"] == 0
+    assert traffic["transactions"]["concatenated"] > 100
+    assert traffic["transactions"]["unified"] > 100
+    assert "split" not in traffic["transactions"]
     bus = numbers["bus"]
     assert not processes_mentioning(bus), "demo left processes behind"
     print(f"\ndemo: {numbers['rate_hz']} Hz, {elapsed:.1f} s wall")

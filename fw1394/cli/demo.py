@@ -41,6 +41,14 @@ def register(subparsers: Any) -> None:
         help="where to write the plot (default: fw1394-demo.png)",
     )
     parser.add_argument("--no-plot", action="store_true", help="do not write a plot")
+    parser.add_argument(
+        "--capture",
+        type=Path,
+        default=Path("fw1394-demo.pcapng"),
+        help="where to record the bus traffic (default: fw1394-demo.pcapng); "
+        "read it with fw1394 dissect or Wireshark",
+    )
+    parser.add_argument("--no-capture", action="store_true", help="do not record the traffic")
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
     parser.set_defaults(handler=run)
 
@@ -61,10 +69,14 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f"--seconds {args.seconds}: use a duration between 0 and 3600 s")
     if not 10 <= args.rate <= 10000:
         raise CliError(f"--rate {args.rate}: use 10 to 10000 Hz")
-    if not args.no_plot and not args.plot.parent.exists():
-        raise CliError(f"--plot {args.plot}: directory {args.plot.parent} does not exist")
+    for wanted, path, option in (
+        (not args.no_plot, args.plot, "--plot"),
+        (not args.no_capture, args.capture, "--capture"),
+    ):
+        if wanted and not path.parent.exists():
+            raise CliError(f"{option} {path}: directory {path.parent} does not exist")
     from fw1394.demo import run_demo
-    from fw1394.demo.report import plot, summary
+    from fw1394.demo.report import plot, summary, traffic
     from fw1394.transport.host import BusError, TransactionError
     from fw1394.transport.launch import LaunchError
 
@@ -76,7 +88,12 @@ def run(args: argparse.Namespace) -> int:
             flush=True,
         )
     try:
-        result = run_demo(args.seconds, args.rate, progress=_progress if live else None)
+        result = run_demo(
+            args.seconds,
+            args.rate,
+            progress=_progress if live else None,
+            capture=None if args.no_capture else args.capture,
+        )
     except (LaunchError, BusError, TransactionError) as error:
         raise CliError(f"virtual bus: {error}") from None
     if live:
@@ -89,6 +106,9 @@ def run(args: argparse.Namespace) -> int:
             numbers["plot"] = "matplotlib is not installed (pip install matplotlib)"
         else:
             numbers["plot"] = str(args.plot)
+    if not args.no_capture:
+        numbers["capture"] = str(args.capture)
+        numbers["traffic"] = traffic(args.capture)
     if args.json:
         print(json.dumps(numbers))
     else:
@@ -115,3 +135,26 @@ def _print_summary(numbers: dict[str, Any]) -> None:
     print("tracking RMS      " + " ".join(f"{e:.0f}" for e in rms) + " counts (axes 1-11)")
     if "plot" in numbers:
         print(f"plot              {numbers['plot']}")
+    if "traffic" in numbers:
+        _print_traffic(numbers["capture"], numbers["traffic"])
+
+
+def _print_traffic(path: str, stats: dict[str, Any]) -> None:
+    if "error" in stats:
+        print(f"capture           {path} (could not dissect: {stats['error']})")
+        return
+    records = stats.get("records", {})
+    print(
+        f"capture           {path}: {stats.get('records_read', 0)} records "
+        f"({records.get('async_packet', 0)} packets, {stats.get('bus_resets', 0)} bus resets), "
+        f"fw1394 dissect {path} -t for every transaction"
+    )
+    kinds = ", ".join(f"{n} {k}" for k, n in stats.get("transactions", {}).items())
+    print(f"transactions      {kinds}")
+    for kind, latency in stats.get("latency_by_kind", {}).items():
+        print(
+            f"  {kind:26} n={latency['count']:6d} p50 {latency['p50_ns'] / 1000:7.1f} us   "
+            f"p99 {latency['p99_ns'] / 1000:7.1f} us (as the tap saw them)"
+        )
+    errors = stats.get("errors", {}).get("total", 0)
+    print(f"errors            {errors}")

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import json
 import math
 import statistics
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -93,3 +96,13 @@ def plot(result: DemoResult, path: Path) -> None:
     figure.tight_layout()
     figure.savefig(path, dpi=90)
     plt.close(figure)
+
+
+def traffic(path: Path) -> dict[str, Any]:
+    """The dissector's statistics of the demo's capture (``fw1394 dissect --stats``)."""
+    command = [sys.executable, "-m", "fw1394.cli.main", "dissect", str(path), "--stats", "--json"]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    if done.returncode != 0 or not done.stdout.strip():
+        return {"error": done.stderr.strip() or f"dissect exited with {done.returncode}"}
+    stats: dict[str, Any] = json.loads(done.stdout.splitlines()[-1])
+    return stats

@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
+import signal
+import subprocess
+import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from fw1394.engine import FailureReason
 from fw1394.host import Board, MultiBoard, PdGains, PositionLoop
@@ -77,15 +82,17 @@ def run_demo(
     bus_name: str | None = None,
     progress: Progress | None = None,
     sample_every: int = 5,
-    on_bus_up: Callable[[BusConfig], None] | None = None,
+    capture: Path | None = None,
 ) -> DemoResult:
-    """Run the demo for ``seconds`` of real time; every started process is stopped."""
+    """Run the demo for ``seconds`` of real time; every started process is stopped.
+
+    With ``capture``, a ``fw1394 capture`` process taps the bus into that file
+    for the whole run (a separate process, so the servo loop keeps its core).
+    """
     config = BusConfig(name=bus_name or f"demo-{os.getpid()}")
     result = DemoResult(bus_name=config.name)
-    with LaunchedBus(config, len(BOARDS), board=",".join(BOARDS)) as bus:
+    with LaunchedBus(config, len(BOARDS), board=",".join(BOARDS)) as bus, _tap(config, capture):
         bus.wait_members()
-        if on_bus_up is not None:
-            on_bus_up(config)
         with BusPort(config) as port:
             nodes = [phy for phy, member in port.nodes() if not member.host]
             robot = MultiBoard(
@@ -96,6 +103,41 @@ def run_demo(
             robot.set_power_control(robot.power_word(range(robot.num_axes), on=False))
             _retrying_bus_resets(robot.apply_all_outputs)
     return result
+
+
+@contextlib.contextmanager
+def _tap(config: BusConfig, path: Path | None) -> Iterator[None]:
+    if path is None:
+        yield
+        return
+    command = [
+        sys.executable,
+        "-m",
+        "fw1394.cli.main",
+        "capture",
+        "--bus",
+        config.name,
+        "-w",
+        str(path),
+        "-q",
+    ]
+    tap = subprocess.Popen(command, stdin=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        # The capture writes its file header once its tap listens; traffic waits for it.
+        limit = time.monotonic() + 20.0
+        while not (path.exists() and path.stat().st_size) and tap.poll() is None:
+            if time.monotonic() > limit:
+                break
+            time.sleep(0.02)
+        yield
+    finally:
+        # SIGINT is the capture's clean stop: it finishes the record and the file.
+        tap.send_signal(signal.SIGINT)
+        try:
+            tap.wait(10)
+        except subprocess.TimeoutExpired:
+            tap.kill()
+            tap.wait()
 
 
 def _retrying_bus_resets(action: Callable[[], None], attempts: int = 3) -> None:
