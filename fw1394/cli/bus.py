@@ -9,6 +9,7 @@ from dataclasses import replace
 from typing import Any
 
 from fw1394.cli.common import CliError, print_json_lines, print_table
+from fw1394.cli.fuzz import add_defect_option, board_defects, checked_defects, defect_arguments
 from fw1394.engine import IEEE1394_NODE, JHU_FIRMWARE, THESIS_FPGA
 from fw1394.jhu.busnode import add_eth1394_options, eth1394_node_arguments
 from fw1394.transport.config import DEFAULT_BUS, BusConfig, BusNameError
@@ -162,6 +163,7 @@ def register(subparsers: Any) -> None:
         "(default: memory)",
     )
     add_eth1394_options(up)  # JHU Eth1394 (fw1394.jhu.busnode)
+    add_defect_option(up)  # planted bugs for the fuzzer, on every node
     up.add_argument("--timeout", type=float, default=60.0, help="seconds to wait for the nodes")
     up.add_argument("--json", action="store_true", help="JSON lines instead of a table")
     up.set_defaults(handler=_bus_handler("up"))
@@ -206,6 +208,7 @@ def add_node_run_options(run: argparse.ArgumentParser) -> None:
     run.add_argument("--rank", type=int, default=None, help="order key (default: start time)")
     run.add_argument("--parent-pid", type=int, default=None, help=argparse.SUPPRESS)
     run.add_argument("--quiet", action="store_true", help="no log lines on stderr")
+    add_defect_option(run)  # planted bugs for the fuzzer (fw1394.node.defects)
 
 
 def _bus_handler(action: str) -> Any:
@@ -228,6 +231,7 @@ def bus_up(args: argparse.Namespace) -> int:
         )
     for kind in args.board.split(","):
         _check_board(kind)
+        checked_defects(kind, args.defect)  # before any process starts
     node_arguments = (*member_arguments(args),)
     # -- JHU Eth1394 (fw1394.jhu.busnode): qla1 firmware and Ethernet cabling --
     try:
@@ -235,6 +239,7 @@ def bus_up(args: argparse.Namespace) -> int:
     except ValueError as error:
         raise CliError(str(error)) from None
     # -- end JHU Eth1394 --
+    node_arguments += defect_arguments(args)  # planted bugs for the fuzzer
     timing(args)
     faults(args)
     log = prepare(config.name) / "bus.log"
@@ -343,6 +348,7 @@ def node_run(args: argparse.Namespace) -> int:
         timing=timing(args),
         faults=faults(args),
         policy=POLICIES[args.policy or default_policy(args.board)],
+        defects=checked_defects(args.board, args.defect),
     )
 
     def log(change: BusReset) -> None:
@@ -374,7 +380,8 @@ def _make_space(args: argparse.Namespace) -> Any:
 
     _check_board(args.board)
     try:
-        return make_board(args.board, board_id=args.board_id)
+        defects = board_defects(args.board, checked_defects(args.board, args.defect))
+        return make_board(args.board, board_id=args.board_id, defects=defects)
     except (ValueError, TypeError) as error:
         raise CliError(f"board {args.board!r}: {error}") from None
 

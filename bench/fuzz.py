@@ -1,0 +1,152 @@
+"""Fuzzer speed: cases per second in-process and over UDP to a node process.
+
+Each campaign runs with the default oracles (a liveness probe after every
+case, a read-back after every write, a register sweep every 64 cases) and no
+shrinking; the rate counts cases only, not start-up. Baselines measured in the
+same run: the case generator alone, and one bare responder answering the same
+cases (the least a fuzzer with a reference model must spend is two of those).
+Targets: >= 5,000 cases/s in-process, >= 1,500 cases/s over UDP.
+
+    python bench/fuzz.py [--cases 20000] [--remote-cases 5000]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import random
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from contextlib import AbstractContextManager, contextmanager
+
+from fw1394.engine import Responder
+from fw1394.fuzz.campaign import run
+from fw1394.fuzz.contract import CONTRACTS
+from fw1394.fuzz.generate import Generator
+from fw1394.fuzz.offsets import offset_model
+from fw1394.fuzz.reference import board
+from fw1394.fuzz.settings import Settings
+
+NODE = 0xFFC0
+IN_PROCESS_TARGET = 5_000
+UDP_TARGET = 1_500
+KINDS = ("memory", "qla1", "snake2010")
+
+
+def generator_rate(kind: str, cases: int) -> float:
+    generator = Generator(NODE, offset_model(kind), random.Random(0))
+    start = time.perf_counter()
+    for _ in range(cases):
+        generator.case()
+    return cases / (time.perf_counter() - start)
+
+
+def responder_rate(kind: str, cases: int) -> float:
+    generator = Generator(NODE, offset_model(kind), random.Random(0))
+    raws = [generator.case()[0] for _ in range(cases)]
+    responder = Responder(NODE, board(kind, 0), CONTRACTS["thesis"])
+    start = time.perf_counter()
+    for number, raw in enumerate(raws):
+        responder.receive(raw, number * 20e-6)
+    return cases / (time.perf_counter() - start)
+
+
+def campaign_rate(target: str, cases: int, **options: object) -> tuple[float, int]:
+    report = run(Settings(target, max_cases=cases, shrink_budget=0, **options))  # type: ignore[arg-type]
+    return report.rate, len(report.findings)
+
+
+@contextmanager
+def child(*command: str) -> Iterator[subprocess.Popen[str]]:
+    process = subprocess.Popen(
+        [sys.executable, "-m", *command],
+        stdout=subprocess.PIPE,
+        stdin=subprocess.DEVNULL,
+        text=True,
+    )
+    try:
+        yield process
+    finally:
+        process.terminate()
+        try:
+            process.wait(5)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+        if process.stdout is not None:
+            process.stdout.close()
+
+
+def served(kind: str, *extra: str) -> AbstractContextManager[subprocess.Popen[str]]:
+    return child(
+        "fw1394.cli.main", "fuzz", "serve", kind, "--listen", "127.0.0.1:0",
+        "--duration", "600", "--parent-pid", str(os.getpid()), *extra,
+    )  # fmt: skip
+
+
+def listening(process: subprocess.Popen[str]) -> str:
+    assert process.stdout is not None
+    return process.stdout.readline().strip().removeprefix("listening on ")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cases", type=int, default=20_000, help="cases per in-process run")
+    parser.add_argument("--remote-cases", type=int, default=5_000, help="cases per remote run")
+    args = parser.parse_args()
+    print(f"{'target':34} {'cases/s':>8} {'target':>7}  baselines (same run)")
+    worst_local = float("inf")
+    for kind in KINDS:
+        rate, _ = campaign_rate(
+            f"inproc:{kind}", args.cases, contract="jhu" if kind == "qla1" else "thesis"
+        )
+        worst_local = min(worst_local, rate)
+        generated = generator_rate(kind, args.cases)
+        answered = responder_rate(kind, args.cases)
+        print(
+            f"{'inproc:' + kind:34} {rate:8,.0f} {IN_PROCESS_TARGET:7,}  "
+            f"generator {generated:,.0f}/s, one responder {answered:,.0f}/s"
+        )
+    remote = remote_rates(args.remote_cases)
+    for label, rate in remote:
+        print(f"{label:34} {rate:8,.0f} {UDP_TARGET:7,}")
+    udp = min(rate for label, rate in remote if label.startswith("udp"))
+    local = verdict(worst_local, IN_PROCESS_TARGET)
+    print(f"\nin-process: slowest {worst_local:,.0f} cases/s ({local})")
+    print(f"over UDP:   slowest {udp:,.0f} cases/s ({verdict(udp, UDP_TARGET)})")
+
+
+def verdict(rate: float, target: int) -> str:
+    return f"target >= {target:,}: {'met' if rate >= target else 'NOT met'}"
+
+
+def remote_rates(cases: int) -> list[tuple[str, float]]:
+    """Campaigns against node processes: fuzz serve over both framings, and a bus node."""
+    rates = []
+    runs: list[tuple[str, str, tuple[str, ...], dict[str, object]]] = [
+        ("udp (tunnel) -> fuzz serve memory", "memory", (), {"model": "memory"}),
+        ("udp (eth1394) -> fuzz serve memory", "memory", ("--eth1394",), {"model": "memory"}),
+        ("udp (tunnel) -> fuzz serve qla1", "qla1", ("--policy", "jhu"), {"model": "qla1"}),
+    ]
+    for label, kind, serve_options, options in runs:
+        if "--eth1394" in serve_options:
+            options["eth1394"] = True
+        if kind == "qla1":
+            options["contract"] = "jhu"
+        with served(kind, *serve_options) as node:
+            rates.append((label, campaign_rate(f"udp:{listening(node)}", cases, **options)[0]))
+    name = f"bench-fuzz-{os.getpid()}"
+    bus_node = (
+        "fw1394.cli.bus", "node", "run", "--name", name, "--rank", "0", "--policy", "thesis",
+        "--parent-pid", str(os.getpid()), "--quiet",
+    )  # fmt: skip
+    with child(*bus_node):
+        rate = campaign_rate(f"bus:{name}/0", cases, model="memory", timeout=1.0)[0]
+    rates.append(("bus: -> node run memory", rate))
+    return rates
+
+
+if __name__ == "__main__":
+    main()

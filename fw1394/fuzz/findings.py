@@ -1,0 +1,121 @@
+"""Findings: one reproducer per distinct violation, kept as JSON files in a directory.
+
+A finding names the oracle and the signature it is deduplicated by, the
+packet that showed it (hex), the expected and observed replies, and the
+stream of packets that led there (roles, times and bytes), shrunk when
+possible. ``fw1394 fuzz replay DIR`` sends the streams again.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from fw1394.fuzz.session import Entry
+
+FORMAT = "fw1394-fuzz-finding/1"
+
+
+@dataclass
+class Finding:
+    """A violation worth a reproducer."""
+
+    oracle: str
+    signature: str
+    #: The target as given on the command line, and the options it was built with.
+    target: str
+    settings: dict[str, Any]
+    expected: str
+    observed: str
+    #: The case (1-based) that showed it, and the label of how that case was made.
+    case: int
+    label: str
+    #: The packets that lead to the violation, the last case among them being the
+    #: one that shows it.
+    stream: list[Entry] = field(default_factory=list)
+    #: After shrinking: the stream reproduces the violation on a fresh node.
+    reproduced: bool | None = None
+    shrunk: bool = False
+
+    @property
+    def key(self) -> tuple[str, str]:
+        return (self.oracle, self.signature)
+
+    @property
+    def packet(self) -> bytes:
+        """The last case packet of the stream (the minimal packet once shrunk)."""
+        cases = [entry.raw for entry in self.stream if entry.role == "case"]
+        return cases[-1] if cases else b""
+
+    def to_json(self) -> dict[str, Any]:
+        data = asdict(self)
+        data["format"] = FORMAT
+        data["packet"] = self.packet.hex()
+        data["stream"] = [
+            {"role": e.role, "time": e.time, "raw": e.raw.hex(), "label": e.label}
+            for e in self.stream
+        ]
+        return data
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> Finding:
+        if data.get("format") != FORMAT:
+            raise ValueError(f"not a finding (format {data.get('format')!r}, wanted {FORMAT})")
+        stream = [
+            Entry(str(e["role"]), float(e["time"]), bytes.fromhex(e["raw"]), str(e["label"]))
+            for e in data["stream"]
+        ]
+        names = {
+            "oracle",
+            "signature",
+            "target",
+            "settings",
+            "expected",
+            "observed",
+            "case",
+            "label",
+            "reproduced",
+            "shrunk",
+        }
+        return cls(**{k: data[k] for k in names}, stream=stream)
+
+
+def file_name(index: int, finding: Finding) -> str:
+    slug = re.sub(r"[^a-z0-9]+", "-", f"{finding.oracle}-{finding.signature}".lower())
+    return f"{index:03d}-{slug.strip('-')[:80]}.json"
+
+
+def save(directory: Path, findings: list[Finding]) -> list[Path]:
+    """Write each finding as ``NNN-oracle-signature.json``; the paths written.
+
+    Findings of an earlier run in the same directory are removed first, so the
+    directory always holds one run's reproducers.
+    """
+    directory.mkdir(parents=True, exist_ok=True)
+    for old in directory.glob("[0-9][0-9][0-9]-*.json"):
+        old.unlink()
+    paths = []
+    for index, finding in enumerate(findings, 1):
+        path = directory / file_name(index, finding)
+        path.write_text(json.dumps(finding.to_json(), indent=2) + "\n")
+        paths.append(path)
+    return paths
+
+
+def load(path: Path) -> list[tuple[Path, Finding]]:
+    """The findings in a directory (or one finding file), in name order.
+
+    Raises ``ValueError`` naming the file for anything that is not a finding.
+    """
+    files = sorted(path.glob("[0-9]*.json")) if path.is_dir() else [path]
+    found = []
+    for file in files:
+        try:
+            finding = Finding.from_json(json.loads(file.read_text()))
+        except (OSError, ValueError, KeyError, TypeError, AttributeError) as error:
+            raise ValueError(f"{file}: {error}") from None
+        found.append((file, finding))
+    return found

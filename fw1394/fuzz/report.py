@@ -1,0 +1,96 @@
+"""The end-of-run report: cases, rate, distinct findings, coverage of kinds and oracles."""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+from typing import Any
+
+from fw1394.fuzz.findings import Finding
+from fw1394.fuzz.judge import ORACLES
+from fw1394.fuzz.settings import Settings
+
+
+@dataclass
+class Report:
+    settings: Settings
+    cases: int = 0
+    elapsed: float = 0.0
+    #: Why the run ended: max-cases, duration, target-gone, interrupted.
+    stopped: str = ""
+    findings: list[Finding] = field(default_factory=list)
+    #: Packet kinds sent (tcode names, ``undecodable``).
+    kinds: Counter[str] = field(default_factory=Counter)
+    #: How the cases were made (valid, bad-header-crc, mutation+crc, ...).
+    labels: Counter[str] = field(default_factory=Counter)
+    #: Whom the cases were addressed to (ours, other-node, other-bus, broadcast, -).
+    addressing: Counter[str] = field(default_factory=Counter)
+    #: Checks made and violations seen (duplicates included), per oracle.
+    checks: Counter[str] = field(default_factory=Counter)
+    violations: Counter[str] = field(default_factory=Counter)
+    #: Anything the user should know about the run (no model, restarts, ...).
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def rate(self) -> float:
+        return self.cases / self.elapsed if self.elapsed > 0 else 0.0
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "settings": self.settings.to_json(),
+            "cases": self.cases,
+            "elapsed": round(self.elapsed, 3),
+            "rate": round(self.rate, 1),
+            "stopped": self.stopped,
+            "findings": [
+                {
+                    "oracle": f.oracle,
+                    "signature": f.signature,
+                    "case": f.case,
+                    "packet": f.packet.hex(),
+                    "reproduced": f.reproduced,
+                    "shrunk": f.shrunk,
+                }
+                for f in self.findings
+            ],
+            "coverage": {
+                "kinds": dict(self.kinds.most_common()),
+                "labels": dict(self.labels.most_common()),
+                "addressing": dict(self.addressing.most_common()),
+                "oracles": {
+                    o: {"checks": self.checks[o], "violations": self.violations[o]} for o in ORACLES
+                },
+            },
+            "notes": self.notes,
+        }
+
+    def lines(self) -> list[str]:
+        s = self.settings
+        out = [
+            f"fuzzed {s.target} against the {s.contract} contract (seed {s.seed}): "
+            f"{self.cases} cases in {self.elapsed:.1f} s, {self.rate:.0f} cases/s; "
+            f"stopped: {self.stopped}",
+            f"findings: {len(self.findings)} distinct "
+            f"({sum(self.violations.values())} violations in all)",
+        ]
+        for f in self.findings:
+            state = (
+                "shrunk" if f.shrunk else "not reproduced" if f.reproduced is False else "as found"
+            )
+            out.append(
+                f"  {f.oracle:<9} {f.signature:<44} case {f.case:<7} {state}: {f.packet.hex()[:48]}"
+            )
+        out.append("coverage:")
+        out.append("  oracles     " + _oracle_text(self.checks, self.violations))
+        for title, counter in (
+            ("kinds", self.kinds),
+            ("made as", self.labels),
+            ("addressed", self.addressing),
+        ):
+            out.append(f"  {title:<11} " + ", ".join(f"{k} {v}" for k, v in counter.most_common()))
+        out.extend(f"note: {note}" for note in self.notes)
+        return out
+
+
+def _oracle_text(checks: Counter[str], violations: Counter[str]) -> str:
+    return ", ".join(f"{o} {checks[o]} checks/{violations[o]} violations" for o in ORACLES)

@@ -1,0 +1,309 @@
+"""One fuzzing session: a target, its reference model, a clock, and the oracles.
+
+:meth:`Session.case` sends one case with whatever follows it (a read-back of
+a write, the liveness probe, now and then a sweep of the board's registers),
+has the model answer the same packets, and returns the violations. Every
+packet sent is kept, with its role and time, in :attr:`Session.stream`, so a
+finding can be replayed and shrunk from the packets that led to it.
+"""
+
+from __future__ import annotations
+
+from collections import Counter, deque
+from collections.abc import Callable, Iterable
+from typing import NamedTuple
+
+from fw1394.engine import Reply
+from fw1394.engine.responder import decode_received
+from fw1394.fuzz.contract import ack_name, family, silence_reason
+from fw1394.fuzz.judge import Violation, describe, difference, is_silent, visible
+from fw1394.fuzz.offsets import OffsetModel
+from fw1394.fuzz.reference import Certainty, Reference
+from fw1394.fuzz.target import Observed, Target, TargetCrash, Wire
+from fw1394.packets import (
+    AckCode,
+    AsyncPacket,
+    BlockReadRequest,
+    BlockWriteRequest,
+    QuadletReadRequest,
+    Request,
+)
+from fw1394.packets.fast import encode_packet
+
+#: Bytes a read-back of a block write asks for at most.
+READBACK_LIMIT = 512
+_ACCEPTED = frozenset({AckCode.ack_complete, AckCode.ack_pending})
+_STOPPING = frozenset({"liveness", "process"})
+
+
+class Entry(NamedTuple):
+    """One packet of the stream: why it was sent, when, and its bytes."""
+
+    role: str  # case, readback, probe, sweep
+    time: float
+    raw: bytes
+    label: str = ""
+
+
+class _Sent(NamedTuple):
+    role: str
+    wire: Wire
+    label: str
+
+
+class Session:
+    """Cases against ``target``, judged against ``reference``."""
+
+    def __init__(
+        self,
+        target: Target,
+        reference: Reference,
+        model: OffsetModel,
+        clock: Callable[[], float],
+        *,
+        probe_every: int = 1,
+        state_every: int = 64,
+        history: int = 512,
+        source_id: int = 0xFFFE,
+    ) -> None:
+        self.target = target
+        self.reference = reference
+        self.model = model
+        self.clock = clock
+        self.probe_every = max(1, probe_every)
+        self.state_every = state_every
+        self.source_id = source_id
+        self.stream: deque[Entry] = deque(maxlen=history)
+        #: Checks made per oracle (for the coverage report).
+        self.checks: Counter[str] = Counter()
+        #: The last batch ended the node (liveness or process): recover before going on.
+        self.broken = False
+        #: The last case as sent (for the campaign's coverage counts).
+        self.last_wire = Wire(b"", None, True)
+        self._tlabel = 0
+        self._avoid = -1
+        self._cases = 0
+        self._write_status = "accepted"
+        self._sweep_ok: dict[int, bool] = {}
+        self._probes: dict[tuple[int, int], Wire] = {}
+        self._node_bits_only = reference.policy.ignore_bus_id
+
+    # -- driving ------------------------------------------------------------------------
+    def case(self, raw: bytes, label: str = "") -> list[Violation]:
+        """Send one case and what follows it; the violations found."""
+        self._cases += 1
+        wire = self.last_wire = wire_of(raw)
+        batch = [_Sent("case", wire, label)]
+        # Our own packets never share the case's label: a transport without acks
+        # (Eth1394) tells replies apart by label alone.
+        self._avoid = getattr(wire.packet, "tlabel", -1)
+        readback = self._readback(wire.packet)
+        if readback is not None:
+            batch.append(_Sent("readback", readback, ""))
+        if self.target.needs_fence or self._cases % self.probe_every == 0:
+            batch.append(_Sent("probe", self._probe(), ""))
+        violations = self._run(batch)
+        if self.state_every and self._cases % self.state_every == 0 and not self.broken:
+            violations += self.sweep()
+        return violations
+
+    def sweep(self) -> list[Violation]:
+        """Read every register of the sweep list and compare with the model."""
+        batch = [_Sent("sweep", self._read(offset), "") for offset in self.model.sweep]
+        if batch and self.target.needs_fence:
+            batch.append(_Sent("probe", self._probe(), ""))
+        return self._run(batch)
+
+    def replay(self, entries: Iterable[Entry], *, keep_times: bool = True) -> list[Violation]:
+        """Send recorded entries again, one batch each, judged by their roles.
+
+        ``keep_times``: at the recorded times (a fresh in-process node); otherwise
+        on the session's clock (a remote node keeps its own time anyway).
+        """
+        found: list[Violation] = []
+        for entry in entries:
+            wire = wire_of(entry.raw)
+            self._avoid = getattr(wire.packet, "tlabel", -1)
+            batch = [_Sent(entry.role, wire, entry.label)]
+            found += self._run(batch, entry.time if keep_times else None)
+            if self.broken:
+                break
+        return found
+
+    def restart(self, reference: Reference) -> None:
+        """A fresh node and model (after a crash or a wedge); the stream starts over."""
+        self.target.restart()
+        self.reference = reference
+        self.stream.clear()
+        self._sweep_ok.clear()
+        self.broken = False
+
+    # -- one batch ----------------------------------------------------------------------
+    def _run(self, batch: list[_Sent], now: float | None = None) -> list[Violation]:
+        now = self.clock() if now is None else now
+        expect = self.reference.expect
+        expected = [expect(sent.wire.packet, sent.wire.damaged, now) for sent in batch]
+        if self.target.needs_fence and batch:
+            visibility = self.target.visibility
+            if is_silent(visible(expected[-1][0], visibility)):
+                fence = _Sent("probe", self._probe(), "")
+                batch.append(fence)
+                expected.append(expect(fence.wire.packet, False, now))
+        stream = self.stream
+        for sent in batch:
+            stream.append(Entry(sent.role, now, sent.wire.raw, sent.label))
+        try:
+            observed = self.target.exchange([sent.wire for sent in batch], now)
+        except TargetCrash as crash:
+            self.broken = True
+            self.checks["process"] += 1
+            signature = f"crash:{str(crash).split(':')[0]}"
+            return [Violation("process", signature, "a reply", str(crash))]
+        found: list[Violation] = []
+        for sent, (reply, certainty), seen in zip(batch, expected, observed, strict=True):
+            violation = self._judge(sent, reply, certainty, seen)
+            if violation is not None:
+                found.append(violation)
+        if any(sent.role == "probe" for sent in batch):
+            found += self._process_check()
+        if any(v.oracle in _STOPPING for v in found):
+            self.broken = True
+        return found
+
+    def _process_check(self) -> list[Violation]:
+        self.checks["process"] += 1
+        problem = self.target.problem()
+        if problem is None:
+            return []
+        return [Violation("process", problem.split(":")[0], "the node's process alive", problem)]
+
+    # -- oracles ------------------------------------------------------------------------
+    def _judge(
+        self, sent: _Sent, reply: Reply, certainty: Certainty, seen: Observed
+    ) -> Violation | None:
+        if sent.role == "case":
+            return self._judge_case(sent.wire, reply, certainty, seen)
+        shown = visible(reply, self.target.visibility)
+        if not is_silent(shown):
+            self.checks["liveness"] += 1
+            if is_silent(seen):
+                return Violation("liveness", "valid-read-unanswered", describe(shown), "silence")
+        oracle = "reply" if sent.role == "probe" else "state"
+        self.checks[oracle] += 1
+        field = difference(shown, seen, certainty, self.target.visibility, **self._options())
+        if sent.role == "sweep":
+            return self._judge_sweep(sent.wire, field, shown, seen)
+        if field is None:
+            return None
+        if sent.role == "probe":
+            return Violation("reply", f"read:{field}", describe(shown), describe(seen))
+        where = _offset_text(sent.wire.packet)
+        return Violation(
+            "state",
+            f"{self._write_status}-write:{field}",
+            f"read-back{where}: {describe(shown)}",
+            f"read-back{where}: {describe(seen)}",
+        )
+
+    def _judge_case(
+        self, wire: Wire, reply: Reply, certainty: Certainty, seen: Observed
+    ) -> Violation | None:
+        packet = wire.packet
+        kind = family(packet)
+        if kind in ("write", "lock"):
+            self._write_status = _status(reply, packet, wire.damaged, self.reference)
+        if is_silent(reply):
+            self.checks["silence"] += 1
+            if is_silent(seen):
+                return None
+            node_id, policy = self.reference.node_id, self.reference.policy
+            reason = silence_reason(packet, wire.damaged, node_id, policy)
+            answer = ack_name(seen.ack) if seen.ack is not None else "response"
+            return Violation("silence", f"{reason}:{kind}:{answer}", "silence", describe(seen))
+        self.checks["reply"] += 1
+        shown = visible(reply, self.target.visibility)
+        field = difference(shown, seen, certainty, self.target.visibility, **self._options())
+        if field is None:
+            return None
+        if field == "ack":
+            field += f":{ack_name(shown.ack)}->{ack_name(seen.ack)}"
+        return Violation("reply", f"{kind}:{field}", describe(shown), describe(seen))
+
+    def _judge_sweep(
+        self, wire: Wire, field: str | None, shown: Reply, seen: Observed
+    ) -> Violation | None:
+        offset = getattr(wire.packet, "offset", 0)
+        was_ok = self._sweep_ok.get(offset)
+        self._sweep_ok[offset] = field is None
+        if field is None:
+            return None
+        expected, observed = (f"register {offset:#x}: {describe(r)}" for r in (shown, seen))
+        if was_ok:
+            # It read right last time: something since then changed it.
+            return Violation("state", f"sweep-changed:{field}", expected, observed)
+        return Violation("reply", f"read:{field}", expected, observed)
+
+    def _options(self) -> dict[str, bool]:
+        return {"node_bits_only": self._node_bits_only}
+
+    # -- packets of our own ----------------------------------------------------------------
+    def _next_tlabel(self) -> int:
+        self._tlabel = (self._tlabel + 1) & 0x3F
+        if self._tlabel == self._avoid:
+            self._tlabel = (self._tlabel + 1) & 0x3F
+        return self._tlabel
+
+    def _read(self, offset: int, length: int | None = None, *, tlabel: int | None = None) -> Wire:
+        node, source = self.reference.node_id, self.source_id
+        tlabel = self._next_tlabel() if tlabel is None else tlabel
+        packet: AsyncPacket
+        if length is None:
+            packet = QuadletReadRequest(
+                destination_id=node, tlabel=tlabel, source_id=source, offset=offset
+            )
+        else:
+            packet = BlockReadRequest(
+                destination_id=node,
+                tlabel=tlabel,
+                source_id=source,
+                offset=offset,
+                data_length=length,
+            )
+        return Wire(encode_packet(packet), packet, False)
+
+    def _probe(self) -> Wire:
+        # The same few packets over and over: made once per label.
+        key = (self.reference.node_id, self._next_tlabel())
+        wire = self._probes.get(key)
+        if wire is None:
+            wire = self._probes[key] = self._read(self.model.probe, tlabel=key[1])
+        return wire
+
+    def _readback(self, packet: AsyncPacket | None) -> Wire | None:
+        if family(packet) not in ("write", "lock"):
+            return None
+        assert isinstance(packet, Request)
+        if isinstance(packet, BlockWriteRequest):
+            length = min(max(len(packet.data), 4), READBACK_LIMIT) & ~3
+            return self._read(packet.offset, length)
+        return self._read(packet.offset)
+
+
+def wire_of(raw: bytes) -> Wire:
+    packet, damaged = decode_received(raw)
+    return Wire(raw, packet, damaged)
+
+
+def _status(reply: Reply, packet: AsyncPacket | None, damaged: bool, reference: Reference) -> str:
+    """What the contract did with a write: accepted, refused (error ack) or dropped."""
+    if reply.ack in _ACCEPTED:
+        return "accepted"
+    if reply.ack is not None:
+        return "refused"
+    reason = silence_reason(packet, damaged, reference.node_id, reference.policy)
+    return "accepted" if reason == "broadcast" else "dropped"
+
+
+def _offset_text(packet: AsyncPacket | None) -> str:
+    offset = getattr(packet, "offset", None)
+    return "" if offset is None else f" at {offset:#x}"

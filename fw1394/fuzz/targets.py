@@ -1,0 +1,137 @@
+"""From settings to a target, its reference model and its offsets.
+
+Target specifications:
+
+* ``inproc:BOARD``: a board emulator in this process (``fw1394.node.boards``
+  kinds, or ``memory``);
+* ``bus:NAME/NODE``: node NODE (a physical ID) of the virtual bus NAME;
+* ``udp:HOST[:PORT]``: a node behind a UDP tunnel, speaking fw1394's frames or,
+  with ``eth1394``, the JHU Eth1394 framing.
+"""
+
+from __future__ import annotations
+
+from fw1394.fuzz.clock import SimulatedClock, WallClock
+from fw1394.fuzz.contract import CONTRACTS
+from fw1394.fuzz.offsets import OffsetModel, offset_model
+from fw1394.fuzz.reference import Reference
+from fw1394.fuzz.session import Session
+from fw1394.fuzz.settings import DEFAULT_POLICIES, Settings, SettingsError
+from fw1394.fuzz.target import Target
+from fw1394.node.boards import BOARDS
+from fw1394.node.boards.qla1 import BOARD_DEFECTS as QLA1_DEFECTS
+from fw1394.node.boards.snake2010 import BOARD_DEFECTS as SNAKE2010_DEFECTS
+from fw1394.node.defects import PACKET_DEFECTS
+
+SCHEMES = ("inproc", "bus", "udp")
+KINDS = tuple(sorted({*BOARDS, "memory"}))
+#: Board-level defects by board kind (see docs/boards/).
+BOARD_DEFECTS: dict[str, frozenset[str]] = {
+    "qla1": QLA1_DEFECTS,
+    "snake2010": SNAKE2010_DEFECTS,
+    "snake2010-ztheta": SNAKE2010_DEFECTS,
+    "memory": frozenset(),
+}
+
+
+def known_defects(kind: str | None) -> dict[str, str]:
+    """Defect names a target of board ``kind`` accepts, with what each does."""
+    known = dict(PACKET_DEFECTS)
+    for name in sorted(BOARD_DEFECTS.get(kind or "", frozenset())):
+        known[name] = f"board defect of {kind} (docs/boards/)"
+    return known
+
+
+def target_kind(settings: Settings) -> str | None:
+    """The board kind the target is (in-process) or is modelled as."""
+    scheme, _, rest = settings.target.partition(":")
+    if scheme == "inproc":
+        return rest
+    return settings.model
+
+
+def check(settings: Settings) -> None:
+    """Raise :class:`SettingsError` for a target spec or option that cannot work."""
+    scheme, colon, rest = settings.target.partition(":")
+    if scheme not in SCHEMES or not colon or not rest:
+        raise SettingsError(
+            f"target {settings.target!r}: use inproc:BOARD, bus:NAME/NODE or udp:HOST[:PORT]"
+        )
+    for kind in (rest if scheme == "inproc" else None, settings.model):
+        if kind is not None and kind not in KINDS:
+            raise SettingsError(f"unknown board kind {kind!r}; known kinds: {', '.join(KINDS)}")
+    if scheme == "inproc":
+        if settings.model not in (None, rest):
+            raise SettingsError("--model must be the target's own kind in-process")
+        unknown = sorted(set(settings.defects) - known_defects(rest).keys())
+        if unknown:
+            raise SettingsError(
+                f"unknown defect {unknown[0]!r} for {rest}; see `fw1394 fuzz defects`"
+            )
+    elif settings.defects:
+        raise SettingsError("--defect plants bugs in-process; start the node with its own --defect")
+    elif settings.policy is not None:
+        raise SettingsError("--policy is for in-process targets; a remote node has its own")
+
+
+def open_target(settings: Settings) -> Target:
+    """The target the settings name, ready to take cases."""
+    check(settings)
+    scheme, _, rest = settings.target.partition(":")
+    if scheme == "inproc":
+        from fw1394.fuzz.inproc import InprocTarget
+
+        policy = settings.policy or DEFAULT_POLICIES.get(rest, "thesis")
+        return InprocTarget(
+            rest,
+            board_id=settings.board_id,
+            node_id=settings.node_id,
+            policy=CONTRACTS[policy],
+            defects=frozenset(settings.defects),
+        )
+    if scheme == "bus":
+        from fw1394.fuzz.bustarget import BusTarget
+
+        return BusTarget.open(rest, timeout=settings.timeout)
+    from fw1394.fuzz.udptarget import UdpTarget
+
+    return UdpTarget.open(
+        rest,
+        node_id=settings.node_id,
+        eth1394=settings.eth1394,
+        timeout=settings.timeout,
+        pid=settings.pid,
+    )
+
+
+def reference_for(settings: Settings, target: Target) -> Reference:
+    """A fresh reference model of the target under the settings' contract."""
+    return Reference(
+        target_kind(settings),
+        settings.board_id,
+        target.node_id,
+        CONTRACTS[settings.contract],
+        twin=not target.restartable,
+    )
+
+
+def offsets_for(settings: Settings) -> OffsetModel:
+    model = offset_model(target_kind(settings))
+    if settings.probe_offset is None:
+        return model
+    return OffsetModel(model.registers, model.sweep, settings.probe_offset, model.quadlet_index)
+
+
+def open_session(settings: Settings, target: Target | None = None) -> Session:
+    """A session on ``target`` (opened from the settings when not given)."""
+    target = target or open_target(settings)
+    clock = SimulatedClock(settings.seed) if target.restartable else WallClock()
+    return Session(
+        target,
+        reference_for(settings, target),
+        offsets_for(settings),
+        clock,
+        probe_every=settings.probe_every,
+        state_every=settings.state_every,
+        history=settings.history,
+    )

@@ -1,0 +1,171 @@
+"""``fw1394 fuzz``: runs, reproducers, replays, shrinking, errors."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from fw1394.cli.main import main
+from fw1394.fuzz.campaign import replayer, run
+from fw1394.fuzz.findings import load
+from fw1394.fuzz.settings import Settings
+from fw1394.fuzz.shrink import shrink
+from fw1394.fuzz.targets import open_target
+
+
+def fuzz(*args: str) -> int:
+    return main(["fuzz", *args])
+
+
+def test_run_saves_reproducers_that_replay(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "found"
+    status = fuzz(
+        "run", "inproc:memory", "--defect", "answers-other-node",
+        "--max-cases", "300", "--findings", str(out), "--no-progress",
+    )  # fmt: skip
+    assert status == 1
+    text = capsys.readouterr().out
+    assert "silence" in text and "other-node" in text and "coverage:" in text
+    report = json.loads((out / "report.json").read_text())
+    assert report["cases"] == 300 and report["findings"]
+    assert set(report["coverage"]["oracles"]) == {
+        "silence",
+        "reply",
+        "liveness",
+        "state",
+        "process",
+    }
+    loaded = load(out)
+    assert loaded and all(f.reproduced and f.shrunk for _, f in loaded)
+    assert fuzz("replay", str(out)) == 1
+    assert "REPRODUCED" in capsys.readouterr().out
+    # The same findings on a node without the defect: fixed.
+    for path, finding in loaded:
+        data = finding.to_json()
+        data["settings"]["defects"] = []
+        path.write_text(json.dumps(data))
+    assert fuzz("replay", str(out), "--json") == 0
+    lines = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert lines and not any(line["reproduced"] for line in lines)
+
+
+def test_a_seed_repeats_a_run() -> None:
+    def once() -> dict[str, object]:
+        settings = Settings(
+            "inproc:snake2010", defects=("stale-read",), max_cases=800, seed=5, shrink_budget=20
+        )
+        report = run(settings)
+        data = report.to_json()
+        for volatile in ("elapsed", "rate"):
+            del data[volatile]
+        return data
+
+    assert once() == once()
+
+
+def test_shrinking_leaves_the_packet_that_matters() -> None:
+    settings = Settings("inproc:memory", defects=("wedge-after-long-block-write",), max_cases=400)
+    report = run(settings)
+    wedge = next(f for f in report.findings if f.oracle == "liveness")
+    assert wedge.shrunk and wedge.reproduced
+    cases = [e for e in wedge.stream if e.role == "case"]
+    # A block write header claiming more than 2048 bytes is all it takes.
+    assert len(cases) == 1 and len(cases[0].raw) <= 24
+    assert cases[0].raw[12:14] == (2049).to_bytes(2, "big") or len(cases[0].raw) > 16
+    assert len(wedge.stream) <= 3
+    # An unshrunk copy shrinks to the same stream again.
+    again = shrink(wedge, replayer(settings, open_target(settings)), 100)
+    assert again.stream == wedge.stream
+
+
+def test_a_corpus_seeds_the_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    corpus = tmp_path / "seeds.txt"
+    corpus.write_text(
+        "# two packets\n"
+        "ffc0f140 ffc1ffff f0000984 5bdd119c\n"
+        "ffc00100 ffc10000 00000010 00000005 00000000\n"
+    )
+    status = fuzz(
+        "run", "inproc:memory", "--corpus", str(corpus), "--max-cases", "200",
+        "--findings", str(tmp_path / "f"), "--json",
+    )  # fmt: skip
+    assert status in (0, 1)
+    report = json.loads(capsys.readouterr().out)
+    assert report["coverage"]["labels"].get("corpus-mutation", 0) > 0
+
+
+def test_the_hypothesis_engine_shrinks_its_findings(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    status = fuzz(
+        "run", "inproc:memory", "--engine", "hypothesis", "--defect", "stale-tlabel",
+        "--max-cases", "60", "--findings", str(tmp_path), "--seed", "1",
+    )  # fmt: skip
+    assert status == 1
+    assert "read:tlabel" in capsys.readouterr().out
+    assert all(f.shrunk for _, f in load(tmp_path))
+
+
+def test_defects_are_listed(capsys: pytest.CaptureFixture[str]) -> None:
+    assert fuzz("defects", "qla1") == 0
+    text = capsys.readouterr().out
+    assert "wedge-after-long-block-write" in text and "hw-version-swapped" in text
+    assert "stale-read" not in text
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["run", "serial:/dev/ttyS0"], "use inproc:BOARD"),
+        (["run", "inproc:toaster"], "unknown board kind"),
+        (["run", "inproc:qla1", "--defect", "nonsense"], "unknown defect"),
+        (["run", "bus:x/0", "--defect", "stale-tlabel"], "in-process"),
+        (["run", "inproc:memory", "--max-cases", "-1"], "max-cases"),
+        (["run", "inproc:memory", "--probe-every", "0"], "probe-every"),
+        (["run", "inproc:memory", "--corpus", "/nonexistent/seeds"], "nonexistent"),
+        (["run", "inproc:memory", "--engine", "hypothesis"], "--max-cases or --duration"),
+        (["run", "udp:127.0.0.1:99999"], "udp:HOST[:PORT]"),
+        (["run", "bus:default/99", "--max-cases", "1"], "NODE a physical ID"),
+        (["replay", "/nonexistent/findings"], "nonexistent"),
+        (["defects", "toaster"], "unknown board kind"),
+        (["serve", "memory", "--listen", "10.1.2.3:5000"], "only loopback"),
+        (["serve", "memory", "--listen", "nowhere"], "HOST:PORT"),
+    ],
+)
+def test_bad_input_is_one_line(
+    args: list[str], message: str, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    if args[0] == "run":
+        args = [*args, "--findings", str(tmp_path)]
+    assert fuzz(*args) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize(
+    "settings", [[], {"target": 5}, {"target": "inproc:memory", "seed": "x"}, {"contract": "?"}]
+)
+def test_a_finding_file_that_is_not_one(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], settings: object
+) -> None:
+    (tmp_path / "001-x.json").write_text("[1, 2]")
+    assert fuzz("replay", str(tmp_path)) == 2
+    assert "001-x.json" in capsys.readouterr().err
+    broken: dict[str, object] = {"format": "fw1394-fuzz-finding/1", "oracle": "reply"}
+    broken["signature"] = "s"
+    broken |= {"target": "inproc:memory", "settings": settings, "expected": "", "observed": ""}
+    broken |= {"case": 1, "label": "", "reproduced": None, "shrunk": False, "stream": []}
+    (tmp_path / "001-x.json").write_text(json.dumps(broken))
+    assert fuzz("replay", str(tmp_path)) == 2
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+def test_a_new_run_replaces_the_old_findings(tmp_path: Path) -> None:
+    (tmp_path / "007-old-finding.json").write_text("{}")
+    (tmp_path / "notes.txt").write_text("mine")
+    assert fuzz("run", "inproc:memory", "--max-cases", "50", "--findings", str(tmp_path)) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt", "report.json"]
