@@ -29,7 +29,7 @@ import time
 from dataclasses import dataclass
 from types import FrameType
 
-from fw1394.engine import JHU_FIRMWARE, Responder
+from fw1394.engine import JHU_FIRMWARE
 from fw1394.engine.responder import decode_received
 from fw1394.jhu.addressing import (
     MULTICAST_FIRMWARE,
@@ -49,6 +49,7 @@ from fw1394.jhu.server import (
     send_loopback,
 )
 from fw1394.node.boards.qla1 import Qla1Board
+from fw1394.node.defects import DefectiveResponder
 from fw1394.packets import BlockWriteRequest, Request, Response
 from fw1394.packets.eth1394 import MULTICAST_GROUP
 from fw1394.packets.fast import encode_packet
@@ -98,6 +99,8 @@ class BusNodeOptions:
     #: Where the host reaches this board; None: no Ethernet cable.
     eth1394: Endpoint | None = None
     ethernet_hub: bool = True
+    #: Planted packet-level bugs for the fuzzer (fw1394.node.defects).
+    defects: frozenset[str] = frozenset()
 
 
 class QlaBusNode:
@@ -113,7 +116,9 @@ class QlaBusNode:
             faults=options.faults,
             drop_acks=False,  # forwarded requests are answered in ack frames
         )
-        self.responder = Responder(LOCAL_BUS_IDS | 63, ClockedBoard(board), JHU_FIRMWARE)
+        self.responder = DefectiveResponder(
+            LOCAL_BUS_IDS | 63, ClockedBoard(board), JHU_FIRMWARE, defects=options.defects
+        )
         self.port = EthernetPort(
             board, self.responder, StationLink(self.station), ethernet_hub=options.ethernet_hub
         )
@@ -308,7 +313,12 @@ def run_from_arguments(
     faults: FaultConfig | None,
 ) -> None:
     """Run the qla1 board of ``fw1394 node run`` until SIGINT or SIGTERM."""
-    board = Qla1Board(board_id=args.board_id, firmware=args.firmware)
+    from fw1394.cli.fuzz import board_defects, checked_defects
+
+    defects = checked_defects("qla1", getattr(args, "defect", None) or [])
+    board = Qla1Board(
+        board_id=args.board_id, firmware=args.firmware, defects=board_defects("qla1", defects)
+    )
     # In a bus of several processes the first one is the board nearest the host;
     # before firmware 9 it is also the only one with an Ethernet cable.
     hub = args.rank in (None, 0)
@@ -320,6 +330,7 @@ def run_from_arguments(
         faults=faults,
         eth1394=parse_endpoint(args.eth1394) if cabled else None,
         ethernet_hub=hub,
+        defects=defects,
     )
     node = QlaBusNode(board, options)
     if node.addresses and not args.quiet:
