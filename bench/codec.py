@@ -60,6 +60,17 @@ def measure(packet: AsyncPacket, seconds: float) -> dict[str, float]:
     }
 
 
+def bulk_per_packet(seconds: float, verify_crc: bool, count: int = 100_000) -> float:
+    """Seconds per packet of the vectorised header decoder over a batch of packets."""
+    from fw1394.capture import batch, columns
+    from fw1394.capture.record import BusRecord, RecordType
+
+    kinds = list(SAMPLES.values())[:2]
+    records = [BusRecord(i, RecordType.async_packet, encode(kinds[i % 2])) for i in range(count)]
+    packed = batch.from_records(records, range(count))
+    return per_call(lambda: columns.decode(packed, verify_crc=verify_crc), seconds) / count
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=0.3, help="time per measurement")
@@ -73,7 +84,15 @@ def main() -> None:
                 f"{name:34} {operation:22} {seconds * 1e6:8.2f} {1 / seconds:12,.0f} "
                 f"{seconds / baseline:9.2f}"
             )
+    print()
+    print(f"{'bulk (numpy, fw1394.capture.columns)':57} {'us/packet':>8} {'packets/s':>12}")
+    bulk: dict[bool, float] = {}
+    for verify in (False, True):
+        bulk[verify] = bulk_per_packet(args.seconds, verify)
+        label = f"decode 100,000 packets{' + CRC check' if verify else ''}"
+        print(f"{label:57} {bulk[verify] * 1e6:8.3f} {1 / bulk[verify]:12,.0f}")
     qread = encode(SAMPLES["quadlet read request"])
+    baseline = measure(SAMPLES["quadlet read request"], args.seconds)["struct.unpack baseline"]
     construct_us = per_call(lambda: decode(qread), args.seconds) * 1e6
     fast_rate = 1 / per_call(lambda: decode_header(qread), args.seconds)
     print()
@@ -85,6 +104,12 @@ def main() -> None:
         f"target fast path >= 1,000,000/s: {fast_rate:,.0f}/s "
         f"({'met' if fast_rate >= 1e6 else 'NOT met'})"
     )
+    for name, seconds in (("one call per packet", 1 / fast_rate), ("bulk", bulk[False])):
+        ratio = seconds / baseline
+        print(
+            f"target fast path within 3x of struct.unpack ({name}): {ratio:.2f}x "
+            f"({'met' if ratio <= 3 else 'NOT met'})"
+        )
 
 
 if __name__ == "__main__":
