@@ -30,13 +30,23 @@ def fw1394(*args: str, namespace: str | None = None) -> subprocess.CompletedProc
 
 
 def check_loop(endpoint: str, boards: int, namespace: str | None = None) -> str:
-    scan = fw1394("jhu", "scan", "-p", f"udp:{endpoint}", "--json", namespace=namespace)
+    scan = fw1394(
+        "jhu",
+        "scan",
+        "-p",
+        f"udp:{endpoint}",
+        "--json",
+        "--receive-timeout",
+        "0.2",
+        namespace=namespace,
+    )
     assert scan.returncode == 0, scan.stderr
     found = json.loads(scan.stdout)
     assert [b["board_id"] for b in found["boards"]] == list(range(boards))
     for protocol in ("sequential", "broadcast-read-write"):
         run = fw1394(
             "jhu", "rt", "-p", f"udp:{endpoint}", "--cycles", "100", "--protocol", protocol,
+            "--receive-timeout", "0.2",
             "--json", namespace=namespace,
         )  # fmt: skip
         assert run.returncode == 0, run.stderr + run.stdout

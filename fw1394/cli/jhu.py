@@ -69,6 +69,14 @@ def register(subparsers: Any) -> None:
         )
         sub.add_argument("--json", action="store_true", help="JSON output")
         sub.add_argument("-v", "--verbose", action="store_true", help="print the host's log")
+        sub.add_argument(
+            "--receive-timeout",
+            type=float,
+            default=0.020,
+            metavar="SECONDS",
+            help="how long each read waits for its answer (default 0.020, as the JHU "
+            "host library; raise it on a loaded machine)",
+        )
         if name in ("quad", "block"):
             sub.add_argument("-b", "--board", type=int, default=0, help="board ID (default 0)")
             sub.add_argument("address", type=integer, help="register offset (quadlet index)")
@@ -141,7 +149,14 @@ def _client(args: argparse.Namespace) -> Any:
     try:
         endpoint = parse_endpoint(rest)
         logger = (lambda text: print(text, file=sys.stderr)) if args.verbose else None
-        return EthUdpClient(endpoint, force_bridge=kind == "udpfw", log=logger)
+        if not 0 < args.receive_timeout <= 10:
+            raise CliError(f"--receive-timeout {args.receive_timeout}: use 0 to 10 seconds")
+        return EthUdpClient(
+            endpoint,
+            force_bridge=kind == "udpfw",
+            receive_timeout=args.receive_timeout,
+            log=logger,
+        )
     except AddressRefusedError as error:
         raise CliError(str(error)) from None
 
