@@ -1,0 +1,73 @@
+"""Transaction time against block size: a straight line, as the thesis reads Figure 21.
+
+Its intercept is the base latency (the cost of a transaction carrying no
+data); its slope, microseconds per quadlet, gives the throughput: 32 bits
+per slope microseconds is ``32 / slope`` Mbit/s.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+BITS_PER_QUADLET = 32
+
+
+@dataclass(frozen=True)
+class LineFit:
+    """``time_us = base_us + slope_us_per_quadlet * quadlets``, least squares."""
+
+    base_us: float
+    slope_us_per_quadlet: float
+    r_squared: float
+    points: int
+
+    @property
+    def mbit_s(self) -> float | None:
+        """Throughput from the slope; None when the time does not grow with the size."""
+        if self.slope_us_per_quadlet <= 0:
+            return None
+        return BITS_PER_QUADLET / self.slope_us_per_quadlet
+
+    def at(self, quadlets: int) -> float:
+        """The fitted time of a transaction of ``quadlets`` quadlets."""
+        return self.base_us + self.slope_us_per_quadlet * quadlets
+
+    def as_dict(self) -> dict[str, float | int | None]:
+        mbit_s = self.mbit_s
+        return {
+            "base_us": round(self.base_us, 2),
+            "slope_us_per_quadlet": round(self.slope_us_per_quadlet, 5),
+            "mbit_s": None if mbit_s is None else round(mbit_s, 1),
+            "r_squared": round(self.r_squared, 4),
+            "points": self.points,
+        }
+
+
+def fit_line(sizes: Sequence[float], times_us: Sequence[float]) -> LineFit:
+    """Ordinary least squares of ``times_us`` on ``sizes`` (at least two distinct sizes)."""
+    x = np.asarray(sizes, dtype=float)
+    y = np.asarray(times_us, dtype=float)
+    if len(x) != len(y):
+        raise ValueError(f"{len(x)} sizes but {len(y)} times")
+    if len(np.unique(x)) < 2:
+        raise ValueError("a line needs at least two distinct sizes")
+    slope, base = np.polyfit(x, y, 1)
+    residual = y - (base + slope * x)
+    spread = float(((y - y.mean()) ** 2).sum())
+    r_squared = 1.0 - float((residual**2).sum()) / spread if spread > 0 else 1.0
+    return LineFit(float(base), float(slope), r_squared, len(x))
+
+
+def fit_medians(samples_by_size: Mapping[int, Sequence[float]]) -> LineFit:
+    """The line through the median time of each size.
+
+    Medians, not every sample: a scheduler stall of a few milliseconds would
+    otherwise tilt the line, and the thesis too reads the line through the
+    bulk of the points, not through its sporadic outliers (§8.4).
+    """
+    sizes = sorted(size for size, times in samples_by_size.items() if len(times))
+    medians = [float(np.median(samples_by_size[size])) for size in sizes]
+    return fit_line(sizes, medians)
