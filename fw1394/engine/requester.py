@@ -9,6 +9,7 @@ by :meth:`Requester.next_deadline`. Every transaction ends with exactly one even
 from __future__ import annotations
 
 import heapq
+import math
 from dataclasses import replace
 
 from fw1394.engine.events import (
@@ -44,6 +45,7 @@ from fw1394.packets import (
     Response,
     name_of,
 )
+from fw1394.packets.fast import builder
 
 _BROADCAST_NODE = 63
 _OFFSET_LIMIT = 1 << 48
@@ -52,6 +54,14 @@ _ACK_COMPLETE = int(AckCode.ack_complete)
 _HEAP_SLACK = 256
 # Module-level names: looking a member up on an Enum class costs more than a global.
 _AWAIT, _COMPLETE, _RETRY = Step.await_response, Step.complete, Step.retry
+_RESP_COMPLETE = int(RCode.resp_complete)
+# A request per transaction: built straight into the frozen dataclass's slots.
+_ROUTE = ("destination_id", "tlabel", "source_id", "offset")
+_new_read_quadlet = builder(QuadletReadRequest, *_ROUTE)
+_new_read_block = builder(BlockReadRequest, *_ROUTE, "data_length")
+_new_write_quadlet = builder(QuadletWriteRequest, *_ROUTE, "quadlet_data")
+_new_write_block = builder(BlockWriteRequest, *_ROUTE, "data")
+_new_lock = builder(LockRequest, *_ROUTE, "extended_tcode", "data")
 
 
 class Requester:
@@ -83,7 +93,9 @@ class Requester:
         self._by_label: dict[int, Transaction] = {}
         #: Same key -> the last transaction that held it, to explain late responses.
         self._ended: dict[int, int] = {}
-        self._timers: list[tuple[float, int, int]] = []
+        #: (when, transaction id), a heap. A transaction has one live entry, at its
+        #: ``queued`` time; see :meth:`_wait`.
+        self._timers: list[tuple[float, int]] = []
         self._outbox: list[AsyncPacket] = []
         self._events: list[Event] = []
 
@@ -109,9 +121,7 @@ class Requester:
     def read_quadlet(self, destination_id: int, offset: int, now: float) -> int:
         _check_offset(offset)
         key, label = self._take_label(destination_id)
-        request = QuadletReadRequest(
-            destination_id=destination_id, tlabel=label, source_id=self._node_id, offset=offset
-        )
+        request = _new_read_quadlet(destination_id, label, self._node_id, offset)
         return self._start(key, label, request, -1, True, now)
 
     def read_block(self, destination_id: int, offset: int, length: int, now: float) -> int:
@@ -119,13 +129,7 @@ class Requester:
         if not 0 <= length < _LENGTH_LIMIT:
             raise ValueError(f"block length {length} is outside 0..{_LENGTH_LIMIT - 1}")
         key, label = self._take_label(destination_id)
-        request = BlockReadRequest(
-            destination_id=destination_id,
-            tlabel=label,
-            source_id=self._node_id,
-            offset=offset,
-            data_length=length,
-        )
+        request = _new_read_block(destination_id, label, self._node_id, offset, length)
         return self._start(key, label, request, length, True, now)
 
     def write_quadlet(self, destination_id: int, offset: int, value: int, now: float) -> int:
@@ -133,13 +137,7 @@ class Requester:
         if not 0 <= value < 1 << 32:
             raise ValueError(f"quadlet value {value:#x} does not fit 32 bits")
         key, label = self._take_label(destination_id)
-        request = QuadletWriteRequest(
-            destination_id=destination_id,
-            tlabel=label,
-            source_id=self._node_id,
-            offset=offset,
-            quadlet_data=value,
-        )
+        request = _new_write_quadlet(destination_id, label, self._node_id, offset, value)
         return self._start(key, label, request, -1, False, now)
 
     def write_block(self, destination_id: int, offset: int, data: bytes, now: float) -> int:
@@ -147,13 +145,7 @@ class Requester:
         if len(data) >= _LENGTH_LIMIT:
             raise ValueError(f"{len(data)} bytes do not fit a block write")
         key, label = self._take_label(destination_id)
-        request = BlockWriteRequest(
-            destination_id=destination_id,
-            tlabel=label,
-            source_id=self._node_id,
-            offset=offset,
-            data=bytes(data),
-        )
+        request = _new_write_block(destination_id, label, self._node_id, offset, bytes(data))
         return self._start(key, label, request, -1, False, now)
 
     def lock(
@@ -175,14 +167,8 @@ class Requester:
         if not 1 <= extended_tcode <= 0xFFFF:
             raise ValueError(f"extended tcode {extended_tcode:#x} is out of range")
         key, label = self._take_label(destination_id)
-        request = LockRequest(
-            destination_id=destination_id,
-            tlabel=label,
-            source_id=self._node_id,
-            offset=offset,
-            extended_tcode=extended_tcode,
-            data=bytes(argument) + bytes(data),
-        )
+        operands = bytes(argument) + bytes(data)
+        request = _new_lock(destination_id, label, self._node_id, offset, extended_tcode, operands)
         # The old value is as long as the data operand; vendor-dependent locks may differ.
         length = -1 if extended_tcode == ExtendedTCode.vendor_dependent else len(data)
         return self._start(key, label, request, length, True, now)
@@ -261,7 +247,10 @@ class Requester:
         it); one that answers no outstanding transaction becomes an
         :class:`UnexpectedResponse` event and touches no transaction.
         """
-        if not isinstance(packet, Response) or not same_node(packet.destination_id, self._node_id):
+        if not isinstance(packet, Response):
+            return None
+        destination = packet.destination_id
+        if destination != self._node_id and not same_node(destination, self._node_id):
             return None
         key = (packet.source_id & 0x3F) << 6 | packet.tlabel
         transaction = self._by_label.get(key)
@@ -271,7 +260,7 @@ class Requester:
         mismatch = mismatch_of(transaction, packet)
         if mismatch:
             self._fail(transaction, FailureReason.response_mismatch, detail=mismatch)
-        elif packet.rcode != RCode.resp_complete:
+        elif packet.rcode != _RESP_COMPLETE:
             self._fail(transaction, FailureReason.rcode_error, rcode=packet.rcode)
         else:
             self._end(transaction, completion(transaction, packet))
@@ -301,10 +290,16 @@ class Requester:
         """Act on every deadline that has passed at ``now``."""
         timers = self._timers
         while timers and timers[0][0] <= now:
-            _, tid, step = heapq.heappop(timers)
+            when, tid = heapq.heappop(timers)
             transaction = self._transactions.get(tid)
-            if transaction is None or transaction.step != step:
+            if transaction is None or transaction.queued != when:
+                continue  # stale: the transaction ended, or an earlier entry replaced this one
+            if transaction.deadline > when:
+                # The deadline moved on since this entry was queued: it is due later.
+                transaction.queued = transaction.deadline
+                heapq.heappush(timers, (transaction.deadline, tid))
                 continue
+            transaction.queued = math.inf
             if transaction.state == AWAIT_ACK:
                 self._fail(transaction, FailureReason.no_ack, detail="ack timeout")
             elif transaction.state == AWAIT_RESPONSE:
@@ -330,8 +325,12 @@ class Requester:
     def _wait(self, transaction: Transaction, state: int, deadline: float) -> None:
         transaction.state = state
         transaction.deadline = deadline
-        transaction.step += 1
-        heapq.heappush(self._timers, (deadline, transaction.tid, transaction.step))
+        # A later deadline than the one queued needs no heap entry of its own: the
+        # queued entry, when it comes up, is moved on to it. Most transactions end
+        # before their first deadline, so a read costs one heap entry, not two.
+        if deadline < transaction.queued:
+            transaction.queued = deadline
+            heapq.heappush(self._timers, (deadline, transaction.tid))
 
     def _retry(self, transaction: Transaction, ack: int, now: float) -> None:
         if transaction.busy >= self.max_busy_retries:
@@ -378,18 +377,24 @@ class Requester:
             self._timers = [
                 entry
                 for entry in self._timers
-                if (live := self._transactions.get(entry[1])) is not None and live.step == entry[2]
+                if (live := self._transactions.get(entry[1])) is not None
+                and live.queued == entry[0]
             ]
             heapq.heapify(self._timers)
 
     def _drop_stale_timers(self) -> None:
+        # Leaves the heap's top exact: live, and at its transaction's deadline.
         timers, transactions = self._timers, self._transactions
         while timers:
-            _, tid, step = timers[0]
+            when, tid = timers[0]
             transaction = transactions.get(tid)
-            if transaction is not None and transaction.step == step:
+            if transaction is None or transaction.queued != when:
+                heapq.heappop(timers)
+            elif transaction.deadline > when:
+                transaction.queued = transaction.deadline
+                heapq.heapreplace(timers, (transaction.deadline, tid))
+            else:
                 return
-            heapq.heappop(timers)
 
 
 def _is_broadcast_write(packet: AsyncPacket) -> bool:

@@ -39,10 +39,16 @@ from fw1394.packets import (
     WriteResponse,
 )
 from fw1394.packets.asynchronous import decode_async
-from fw1394.packets.fast import decode_sound
+from fw1394.packets.fast import builder, decode_sound
 
 _BROADCAST_NODE = 63
 _LOCAL_BUS = 0x3FF
+# A response per request: built straight into the frozen dataclass's slots.
+_ROUTE = ("destination_id", "tlabel", "source_id")
+_new_read_quadlet = builder(QuadletReadResponse, *_ROUTE, "quadlet_data")
+_new_read_block = builder(BlockReadResponse, *_ROUTE, "data")
+_new_lock = builder(LockResponse, *_ROUTE, "extended_tcode", "data")
+_new_write = builder(WriteResponse, *_ROUTE)
 
 
 class Reply(NamedTuple):
@@ -122,6 +128,7 @@ class Responder:
         self._node_id = node_id
         self._space = space
         self._policy = policy
+        self._ignore_bus_id = policy.ignore_bus_id
         self._generation = generation
         self._ticks = -1
         self._busy_left = 0
@@ -191,16 +198,19 @@ class Responder:
         if ticks > self._ticks:
             self._ticks = ticks
             self._space.set_time(ticks)
-        if type(packet) not in _REQUEST_TYPES:
+        kind = type(packet)
+        if kind not in _REQUEST_TYPES:
             return _SILENT  # Screen.not_a_request
         assert isinstance(packet, Request)
         destination = packet.destination_id
-        broadcast = destination & 0x3F == _BROADCAST_NODE
-        if not self._on_our_bus(destination) or not (
-            broadcast or destination & 0x3F == self._node_id & 0x3F
-        ):
+        node = destination & 0x3F
+        broadcast = node == _BROADCAST_NODE
+        if not (broadcast or node == self._node_id & 0x3F):
             return _SILENT  # Screen.not_addressed
-        serve = self._serve.get(type(packet))
+        bus = destination >> 6
+        if not (bus == _LOCAL_BUS or self._ignore_bus_id or bus == self._node_id >> 6):
+            return _SILENT  # Screen.not_addressed
+        serve = self._serve.get(kind)
         if serve is None and (broadcast or self._policy.unsupported_tcode == "silent"):
             return _SILENT  # Screen.unsupported_silent
         if damaged and self._still_damaged(packet):
@@ -215,12 +225,6 @@ class Responder:
             self._busy_left -= 1
             return self._busy_reply  # Screen.injected_busy
         return serve(packet)
-
-    def _on_our_bus(self, destination: int) -> bool:
-        if self._policy.ignore_bus_id:
-            return True
-        bus = destination >> 6
-        return bus == _LOCAL_BUS or bus == self._node_id >> 6
 
     def _still_damaged(self, packet: AsyncPacket) -> bool:
         # A link that never compares a block write's header CRC sees only the rest.
@@ -278,12 +282,7 @@ class Responder:
             value = self._space.read_quadlet(request.offset)
         except SpaceError as error:
             return self._refuse(request, self._read_answers, error)
-        response = QuadletReadResponse(
-            destination_id=request.source_id,
-            tlabel=request.tlabel,
-            source_id=self._node_id,
-            quadlet_data=value,
-        )
+        response = _new_read_quadlet(request.source_id, request.tlabel, self._node_id, value)
         return Reply(self._read_done.ack, response, self._read_done.concatenated)
 
     def _read_block(self, request: Request) -> Reply:
@@ -292,12 +291,7 @@ class Responder:
             data = self._space.read_block(request.offset, request.data_length)
         except SpaceError as error:
             return self._refuse(request, self._read_answers, error)
-        response = BlockReadResponse(
-            destination_id=request.source_id,
-            tlabel=request.tlabel,
-            source_id=self._node_id,
-            data=data,
-        )
+        response = _new_read_block(request.source_id, request.tlabel, self._node_id, data)
         return Reply(self._read_done.ack, response, self._read_done.concatenated)
 
     def _lock(self, request: Request) -> Reply:
@@ -307,13 +301,8 @@ class Responder:
             old = perform_lock(self._space, request)
         except SpaceError as error:
             return self._refuse(request, self._read_answers, error)
-        response = LockResponse(
-            destination_id=request.source_id,
-            tlabel=request.tlabel,
-            source_id=self._node_id,
-            extended_tcode=request.extended_tcode,
-            data=old,
-        )
+        to, label, code = request.source_id, request.tlabel, request.extended_tcode
+        response = _new_lock(to, label, self._node_id, code, old)
         return Reply(self._read_done.ack, response, self._read_done.concatenated)
 
     def _write_quadlet(self, request: Request) -> Reply:
@@ -336,7 +325,5 @@ class Responder:
         if self._write_done is not None:
             return self._write_done
         answer = self._write_answers[Outcome.done]
-        response = WriteResponse(
-            destination_id=request.source_id, tlabel=request.tlabel, source_id=self._node_id
-        )
+        response = _new_write(request.source_id, request.tlabel, self._node_id)
         return Reply(answer.ack, response, answer.concatenated)

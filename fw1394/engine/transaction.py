@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 from fw1394.engine.events import Event, LockCompleted, ReadCompleted, WriteCompleted
 from fw1394.engine.table import RESPONSE_TCODES
 from fw1394.packets import (
@@ -41,10 +43,10 @@ class Transaction:
         "key",
         "label",
         "length",
+        "queued",
         "request",
         "response_class",
         "state",
-        "step",
         "tid",
     )
 
@@ -64,9 +66,11 @@ class Transaction:
         #: Reads and locks need a response packet; a write may end with its ack.
         self.expects_response = expects
         self.state = AWAIT_ACK
+        #: When the current state times out.
         self.deadline = 0.0
-        #: Bumped at every state change; a timer entry with an older step is stale.
-        self.step = 0
+        #: When this transaction's live timer entry is due (never after ``deadline``);
+        #: infinity while it has none.
+        self.queued = math.inf
         #: Busy retries so far.
         self.busy = 0
 
@@ -75,7 +79,8 @@ def mismatch_of(transaction: Transaction, packet: Response) -> str:
     """What makes ``packet`` no answer to ``transaction`` ("" if nothing does)."""
     if type(packet) is not transaction.response_class:
         return f"{packet.kind} does not answer a {transaction.request.kind}"
-    if not same_node(packet.source_id, transaction.destination_id):
+    source = packet.source_id
+    if source != transaction.destination_id and not same_node(source, transaction.destination_id):
         return (
             f"source {packet.source_id:#06x} is not the destination "
             f"{transaction.destination_id:#06x}"
@@ -86,7 +91,7 @@ def mismatch_of(transaction: Transaction, packet: Response) -> str:
         if packet.extended_tcode != request.extended_tcode:
             return f"extended tcode {packet.extended_tcode:#x} != {request.extended_tcode:#x}"
     # Only a successful response carries data; an error response may carry none.
-    if packet.rcode == RCode.resp_complete and transaction.length >= 0:
+    if transaction.length >= 0 and packet.rcode == RCode.resp_complete:
         assert isinstance(packet, (BlockReadResponse, LockResponse))
         if packet.data_length != transaction.length or len(packet.data) != packet.data_length:
             return (

@@ -16,7 +16,8 @@ from dataclasses import dataclass, field
 from types import FrameType
 
 from fw1394.engine import THESIS_FPGA, Responder, ResponderPolicy
-from fw1394.node.space import TICKS_PER_SECOND, AddressSpace
+from fw1394.node.defects import DefectiveResponder
+from fw1394.node.space import AddressSpace
 from fw1394.packets.fast import encode_packet
 from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig
@@ -31,6 +32,10 @@ from fw1394.transport.wire import (
 )
 
 LOCAL_BUS = 0x3FF
+# Plain ints: an Enum member lookup costs more than the rest of a frame's dispatch.
+_ASYNC_PACKET, _ACK = int(FrameKind.async_packet), int(FrameKind.ack)
+#: Wire byte of each ack code (code and parity), looked up rather than computed.
+_ACK_BYTES = tuple(ack_byte(code) for code in range(16))
 
 
 class BusRefusedError(RuntimeError):
@@ -45,6 +50,8 @@ class NodeOptions:
     timing: Timing | None = None
     faults: FaultConfig | None = None
     policy: ResponderPolicy = THESIS_FPGA
+    #: Planted packet-level bugs for the fuzzer (fw1394.node.defects); none normally.
+    defects: frozenset[str] = frozenset()
 
 
 class Node:
@@ -61,7 +68,12 @@ class Node:
             faults=options.faults,
             drop_acks=True,
         )
-        self.responder = Responder(node_id=LOCAL_BUS << 6 | 63, space=space, policy=options.policy)
+        node_id = LOCAL_BUS << 6 | 63
+        self.responder = (
+            DefectiveResponder(node_id, space, options.policy, defects=options.defects)
+            if options.defects
+            else Responder(node_id=node_id, space=space, policy=options.policy)
+        )
         self._epoch = time.monotonic()
         self._running = True
         #: Called with each bus reset this node takes part in (for logs).
@@ -73,18 +85,19 @@ class Node:
     def run(self) -> None:
         """Serve until :meth:`stop` (or a signal handler calling it)."""
         station = self.station
+        receive, on_packet, clock = station.receive, self._on_packet, time.monotonic
         try:
             deadline = 0.0
             while self._running:
-                frame = station.receive()
+                frame = receive()
                 if frame is None:
                     # Bus management (or a quiet poll): the responder must learn its new
                     # physical ID before it answers the first packet of a new generation.
                     self._apply_changes()
                     deadline = min(deadline, station.next_deadline())
-                elif frame[0].kind == FrameKind.async_packet:
-                    self._on_packet(frame[0], frame[1])
-                now = time.monotonic()
+                elif frame[0].kind == _ASYNC_PACKET:
+                    on_packet(frame[0], frame[1])
+                now = clock()
                 if now >= deadline or now >= station.wake_by:
                     station.service(now)
                     self._apply_changes()
@@ -103,25 +116,25 @@ class Node:
 
     def _on_packet(self, header: FrameHeader, payload: bytes) -> None:
         station = self.station
-        if header.generation != station.generation or station.phy_id is None:
+        membership = station.membership
+        if header.generation != membership.generation or membership.phy_id is None:
             return  # a packet of another generation never reaches a link after a reset
-        now = time.monotonic()
-        self.space.set_time(int((now - self._epoch) * TICKS_PER_SECOND))
-        reply = self.responder.receive(payload, now)
+        # The responder sets the board's clock from this: ticks since the node started.
+        reply = self.responder.receive(payload, time.monotonic() - self._epoch)
         requester = header.sender_phy
         if reply.ack is None:
             if reply.response is not None:
-                station.send(FrameKind.async_packet, requester, encode_packet(reply.response))
+                station.send(_ASYNC_PACKET, requester, encode_packet(reply.response))
             return
         tlabel = payload[2] >> 2 if len(payload) >= 3 else 0
         response = b"" if reply.response is None else encode_packet(reply.response)
-        ack = ACK_PAYLOAD.pack(ack_byte(reply.ack), tlabel, 0, header.sequence)
+        ack = ACK_PAYLOAD.pack(_ACK_BYTES[reply.ack], tlabel, 0, header.sequence)
         if reply.concatenated:
-            station.send(FrameKind.ack, requester, ack + response)
+            station.send(_ACK, requester, ack + response)
             return
-        station.send(FrameKind.ack, requester, ack)
+        station.send(_ACK, requester, ack)
         if response:
-            station.send(FrameKind.async_packet, requester, response)
+            station.send(_ASYNC_PACKET, requester, response)
 
 
 def run_node(

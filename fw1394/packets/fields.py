@@ -102,7 +102,7 @@ class Quadlets(construct.Construct):  # type: ignore[misc]
         unpack = self._unpack_line().replace("unpack(data)", "unpack_from(data, offset)")
         return f"def {function}(data, offset=0):\n{unpack}    return ({items},)\n"
 
-    def _quadlet_expressions(self) -> list[str]:
+    def quadlet_expressions(self) -> list[str]:
         """Python expressions packing each quadlet from variables named like the fields."""
         quadlets = []
         for i in range(self.count):
@@ -121,7 +121,7 @@ class Quadlets(construct.Construct):  # type: ignore[misc]
     def _build_source(self, function: str) -> str:
         lines = [f"def {function}(obj):"]
         lines.extend(f"    {name} = obj[{name!r}]" for name in self.names)
-        lines.append(f"    return ({', '.join(self._quadlet_expressions())},)")
+        lines.append(f"    return ({', '.join(self.quadlet_expressions())},)")
         return "\n".join(lines) + "\n"
 
     def attribute_packer(self, constants: dict[str, int]) -> Callable[[Any], bytes | None]:
@@ -131,21 +131,34 @@ class Quadlets(construct.Construct):  # type: ignore[misc]
         fall back to :meth:`pack`, which says which one.
         """
         lines = ["def _pack_attributes(obj):"]
+        lines += self.attribute_source(constants, "obj", "header")
+        lines.append("    return header")
+        namespace: dict[str, Any] = {"pack": self.format.pack}
+        exec("\n".join(lines) + "\n", namespace)
+        packer: Callable[[Any], bytes | None] = namespace["_pack_attributes"]
+        return packer
+
+    def attribute_source(self, constants: dict[str, int], source: str, target: str) -> list[str]:
+        """Function-body lines packing the attributes of ``source`` into ``target``.
+
+        The lines read each field (``constants`` fixed) into a local variable of its
+        name, ``return None`` when one does not fit, and then assign the packed
+        bytes to ``target``; ``pack`` must be this object's ``format.pack``. For
+        generated functions that do more around the header (whole packets).
+        """
+        lines = []
         checks = []
         for name in self.names:
             if name in constants:
                 lines.append(f"    {name} = {constants[name]!r}")
                 continue
-            lines.append(f"    {name} = obj.{name}")
+            lines.append(f"    {name} = {source}.{name}")
             checks.append(f"0 <= {name} <= {(1 << self.widths[name]) - 1:#x}")
         if checks:
             lines.append(f"    if not ({' and '.join(checks)}):")
             lines.append("        return None")
-        lines.append(f"    return pack({', '.join(self._quadlet_expressions())})")
-        namespace: dict[str, Any] = {"pack": self.format.pack}
-        exec("\n".join(lines) + "\n", namespace)
-        packer: Callable[[Any], bytes | None] = namespace["_pack_attributes"]
-        return packer
+        lines.append(f"    {target} = pack({', '.join(self.quadlet_expressions())})")
+        return lines
 
     # -- construct protocol ------------------------------------------------------------
     def _parse(self, stream: Any, context: Any, path: str) -> dict[str, int]:

@@ -24,7 +24,7 @@ from fw1394.transport.faults import FaultConfig
 from fw1394.transport.membership import BusReset, Excluded, Refused, Timing
 from fw1394.transport.station import Station
 from fw1394.transport.wire import (
-    AckPayload,
+    ACK_PAYLOAD,
     FrameHeader,
     FrameKind,
     MemberInfo,
@@ -37,6 +37,11 @@ LOCAL_BUS = 0x3FF
 #: the guard turns it into an error instead of a hang.
 _GUARD_SLACK = 5.0
 _TIMER_GRANULARITY = 0.001
+# Plain ints: an Enum member lookup costs more than the rest of a frame's dispatch.
+_ASYNC_PACKET, _ACK = int(FrameKind.async_packet), int(FrameKind.ack)
+#: Wire byte of each ack code (code and parity), looked up rather than computed.
+_ACK_BYTES = tuple(ack_byte(code) for code in range(16))
+_ACK_SIZE = ACK_PAYLOAD.size
 
 
 class BusError(RuntimeError):
@@ -135,6 +140,8 @@ class BusHost:
     def wait_ready(self, timeout: float | None = None) -> None:
         """Block until this host is on the bus with its self-ID phase complete."""
         membership = self.station.membership
+        if membership.ready:
+            return
         seconds = self.join_timeout if timeout is None else timeout
         limit = time.monotonic() + seconds
         while not membership.ready:
@@ -193,13 +200,13 @@ class BusHost:
     def wait(self, tid: int) -> TransactionEvent:
         """The event that ended transaction ``tid`` (completed or failed)."""
         finished = self._finished
-        guard = time.monotonic() + self.requester.ack_timeout
-        guard += self.requester.split_timeout * (1 + self.requester.max_busy_retries)
-        guard += _GUARD_SLACK
+        requester, pump, clock = self.requester, self._pump, time.monotonic
+        guard = clock() + requester.ack_timeout + _GUARD_SLACK
+        guard += requester.split_timeout * (1 + requester.max_busy_retries)
         while tid not in finished:
-            if time.monotonic() > guard:
+            if clock() > guard:
                 return TransactionFailed(tid, FailureReason.response_timeout, detail="no end")
-            self._pump()
+            pump()
         return finished.pop(tid)
 
     def poll(self, timeout: float) -> list[Event]:
@@ -222,10 +229,12 @@ class BusHost:
             self._station_due = min(self._station_due, station.next_deadline())
         else:
             header, payload = frame
-            if header.generation == station.generation and station.phy_id is not None:
-                if header.kind == FrameKind.ack:
+            membership = station.membership
+            if header.generation == membership.generation and membership.phy_id is not None:
+                kind = header.kind
+                if kind == _ACK:
                     self._on_ack(header, payload, now)
-                elif header.kind == FrameKind.async_packet:
+                elif kind == _ASYNC_PACKET:
                     self._on_response(header, payload, now)
                     self._collect()
         if now >= self._station_due or now >= station.wake_by:
@@ -244,10 +253,14 @@ class BusHost:
                 self._collect()
 
     def _on_ack(self, header: FrameHeader, payload: bytes, now: float) -> None:
-        ack = parse_ack(payload)
-        self.requester.receive_ack(LOCAL_BUS << 6 | header.sender_phy, ack.tlabel, ack.code, now)
-        if ack.concatenated:
-            self._on_response(header, ack.concatenated, now)
+        if len(payload) < _ACK_SIZE:
+            parse_ack(payload)  # raises its FrameError
+        # Unpacked in place rather than through parse_ack's AckPayload: every
+        # transaction has one.
+        byte, tlabel, _, _ = ACK_PAYLOAD.unpack_from(payload)
+        self.requester.receive_ack(LOCAL_BUS << 6 | header.sender_phy, tlabel, byte >> 4, now)
+        if len(payload) > _ACK_SIZE:
+            self._on_response(header, payload[_ACK_SIZE:], now)
         else:
             self._flush_requests()  # a busy ack may have queued a retry
         self._collect()
@@ -257,8 +270,8 @@ class BusHost:
         code = self.requester.receive_response(packet, now)
         if code is not None:
             tlabel: int = getattr(packet, "tlabel", 0)
-            reply = AckPayload(ack_byte(code), tlabel, header.sequence)
-            self.station.send(FrameKind.ack, header.sender_phy, reply.pack())
+            ack = ACK_PAYLOAD.pack(_ACK_BYTES[code], tlabel, 0, header.sequence)
+            self.station.send(_ACK, header.sender_phy, ack)
 
     def _apply_changes(self) -> None:
         for change in self.station.changes():
@@ -275,7 +288,7 @@ class BusHost:
         station = self.station
         for packet in self.requester.packets_to_send():
             destination = getattr(packet, "destination_id", 0xFFFF) & 0x3F
-            station.send(FrameKind.async_packet, destination, encode_packet(packet))
+            station.send(_ASYNC_PACKET, destination, encode_packet(packet))
 
     def _collect(self) -> None:
         for event in self.requester.events():
