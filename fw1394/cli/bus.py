@@ -6,7 +6,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 from dataclasses import replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from fw1394.cli.common import CliError, print_json_lines, print_table
 from fw1394.cli.fuzz import add_defect_option, board_defects, checked_defects, defect_arguments
@@ -16,6 +16,9 @@ from fw1394.transport.config import DEFAULT_BUS, BusConfig, BusNameError
 from fw1394.transport.faults import FaultConfig
 from fw1394.transport.membership import Timing
 from fw1394.transport.wire import MAX_MEMBERS, MemberInfo
+
+if TYPE_CHECKING:
+    from fw1394.transport.port import BusPort
 
 DEFAULT_TIMING = Timing()
 #: Responder policies by name. "quick" is an ordinary IEEE 1394 node that answers
@@ -104,6 +107,23 @@ def faults(args: argparse.Namespace) -> FaultConfig:
         )
     except ValueError as error:
         raise CliError(str(error)) from None
+
+
+def host_port(args: argparse.Namespace) -> BusPort:
+    """A host port on the bus the options name, waiting ``--timeout`` per transaction."""
+    from fw1394.transport.port import BusPort
+
+    config = bus_config(args)
+    try:
+        return BusPort(
+            config,
+            ack_timeout=args.timeout,
+            split_timeout=args.timeout,
+            timing=timing(args),
+            faults=faults(args),
+        )
+    except OSError as error:
+        raise CliError(f"cannot join bus {config.name!r}: {error}") from None
 
 
 def member_arguments(args: argparse.Namespace) -> list[str]:

@@ -11,7 +11,7 @@ import argparse
 import json
 from typing import Any
 
-from fw1394.cli.bus import add_bus_options, add_member_options, bus_config, faults, timing
+from fw1394.cli.bus import add_bus_options, add_member_options, bus_config, host_port
 from fw1394.cli.common import CliError, fail, integer, quadlets_hex
 from fw1394.packets import ExtendedTCode
 
@@ -86,21 +86,10 @@ def _quadlet(value: int) -> bytes:
 def _transact(args: argparse.Namespace, what: str, action: Any) -> Any:
     """Join the bus, check the node is there, run ``action(port)``, leave."""
     from fw1394.transport.host import BusError, TransactionError
-    from fw1394.transport.port import BusPort
 
     _check(args)
     config = bus_config(args)
-    try:
-        port = BusPort(
-            config,
-            ack_timeout=args.timeout,
-            split_timeout=args.timeout,
-            timing=timing(args),
-            faults=faults(args),
-        )
-    except OSError as error:
-        raise CliError(f"cannot join bus {config.name!r}: {error}") from None
-    with port:
+    with host_port(args) as port:
         try:
             nodes = dict(port.nodes())
             if args.node != 63 and args.node not in nodes:

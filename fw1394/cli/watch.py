@@ -8,7 +8,7 @@ import sys
 import time
 from typing import TYPE_CHECKING, Any
 
-from fw1394.cli.bus import add_bus_options, add_member_options, bus_config, faults, timing
+from fw1394.cli.bus import add_bus_options, add_member_options, host_port
 from fw1394.cli.common import CliError, integer
 
 if TYPE_CHECKING:
@@ -110,20 +110,8 @@ def _check(args: argparse.Namespace) -> None:
 def run(args: argparse.Namespace) -> int:
     _check(args)
     from fw1394.transport.host import BusError
-    from fw1394.transport.port import BusPort
 
-    config = bus_config(args)
-    try:
-        port = BusPort(
-            config,
-            ack_timeout=args.timeout,
-            split_timeout=args.timeout,
-            timing=timing(args),
-            faults=faults(args),
-        )
-    except OSError as error:
-        raise CliError(f"cannot join bus {config.name!r}: {error}") from None
-    with port:
+    with host_port(args) as port:
         try:
             boards = _attach(port, args)
             if args.once:
