@@ -10,8 +10,8 @@ from fw1394.fuzz.inproc import InprocTarget
 from fw1394.fuzz.judge import Violation, difference, visible
 from fw1394.fuzz.offsets import offset_model
 from fw1394.fuzz.reference import Certainty, Reference
-from fw1394.fuzz.session import Session, wire_of
 from fw1394.fuzz.target import Observation, Visibility
+from fw1394.fuzz.trial import Trial, wire_of
 from fw1394.fuzz.tunnel import Replies
 from fw1394.fuzz.udptarget import ETH1394_VISIBILITY
 from fw1394.packets import (
@@ -29,11 +29,11 @@ from fw1394.transport.wire import AckPayload, ack_byte
 NODE = 0xFFC0
 
 
-def session(kind: str = "memory", *defects: str, contract: str = "thesis") -> Session:
+def trial(kind: str = "memory", *defects: str, contract: str = "thesis") -> Trial:
     policy = CONTRACTS[contract]
     target = InprocTarget(kind, board_id=0, node_id=NODE, policy=policy, defects=frozenset(defects))
     reference = Reference(kind, 0, NODE, policy)
-    return Session(target, reference, offset_model(kind), SimulatedClock(0), state_every=4)
+    return Trial(target, reference, offset_model(kind), SimulatedClock(0), state_every=4)
 
 
 def keys(violations: list[Violation]) -> set[tuple[str, str]]:
@@ -45,7 +45,7 @@ def read(offset: int = 0, node: int = NODE, tlabel: int = 1) -> bytes:
 
 
 def test_a_clean_node_passes_every_oracle() -> None:
-    s = session()
+    s = trial()
     assert s.case(read(8)) == []
     assert s.case(encode(QuadletWriteRequest(destination_id=NODE, offset=8, quadlet_data=5))) == []
     assert s.case(malform.flip_header_crc(read(8), 1)) == []
@@ -54,24 +54,24 @@ def test_a_clean_node_passes_every_oracle() -> None:
 
 
 def test_silence_other_node() -> None:
-    s = session("memory", "answers-other-node")
+    s = trial("memory", "answers-other-node")
     assert ("silence", "other-node:read:ack_pending") in keys(s.case(read(node=0xFFC5)))
 
 
 def test_silence_bad_crc() -> None:
-    s = session("memory", "bad-crc-read-answered")
+    s = trial("memory", "bad-crc-read-answered")
     found = keys(s.case(malform.flip_header_crc(read(4), 1 << 7)))
     assert ("silence", "bad-header-crc:read:ack_pending") in found
 
 
 def test_reply_fields() -> None:
-    s = session("memory", "stale-tlabel")
+    s = trial("memory", "stale-tlabel")
     s.case(read(tlabel=3))
     assert ("reply", "read:tlabel") in keys(s.case(read(tlabel=4)))
 
 
 def test_liveness_after_a_wedge() -> None:
-    s = session("memory", "wedge-after-long-block-write")
+    s = trial("memory", "wedge-after-long-block-write")
     long_write = encode(BlockWriteRequest(destination_id=NODE, offset=0, data=bytes(2052)))
     found = keys(s.case(long_write))
     assert ("liveness", "valid-read-unanswered") in found
@@ -79,21 +79,21 @@ def test_liveness_after_a_wedge() -> None:
 
 
 def test_state_after_a_damaged_write() -> None:
-    s = session("memory", "bad-crc-write-performed")
+    s = trial("memory", "bad-crc-write-performed")
     write = encode(QuadletWriteRequest(destination_id=NODE, offset=0x40, quadlet_data=7))
     found = keys(s.case(malform.flip_header_crc(write, 1)))
     assert ("state", "dropped-write:quadlet_data") in found
 
 
 def test_process_crash() -> None:
-    s = session("memory", "crash-on-empty-block-write")
+    s = trial("memory", "crash-on-empty-block-write")
     empty = encode(BlockWriteRequest(destination_id=NODE, offset=0, data=b""))
     assert ("process", "crash:raised PlantedCrash") in keys(s.case(empty))
     assert s.broken
 
 
 def test_state_read_back_and_sweep_see_a_stored_status_write() -> None:
-    s = session("qla1", "status-write-stored", contract="jhu")
+    s = trial("qla1", "status-write-stored", contract="jhu")
     assert s.sweep() == []  # the baseline: every register reads right
     write = encode(QuadletWriteRequest(destination_id=0xFFFF, offset=0, quadlet_data=0x0F0F))
     assert keys(s.case(write)) == {("state", "accepted-write:quadlet_data")}

@@ -68,8 +68,10 @@ def test_tunnel_node_with_a_planted_defect() -> None:
 
 
 def test_tunnel_node_without_defects_meets_its_contract() -> None:
-    with process(*serve("qla1", "--policy", "jhu")) as (_, line):
-        report = run(Settings(f"udp:{address(line)}", model="qla1", contract="jhu", max_cases=400))
+    # Plain memory: a board with a clock (the QLA's 30 ms power-up watchdog) lets
+    # a loaded machine's stalls show up as state differences from the model.
+    with process(*serve("memory")) as (_, line):
+        report = run(Settings(f"udp:{address(line)}", model="memory", max_cases=400))
     assert report.findings == []
     assert report.checks["liveness"] >= 400 and report.checks["state"] > 50
 

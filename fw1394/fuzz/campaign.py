@@ -20,11 +20,11 @@ from fw1394.fuzz.generate import Generator
 from fw1394.fuzz.judge import Violation
 from fw1394.fuzz.progress import Progress
 from fw1394.fuzz.report import Report
-from fw1394.fuzz.session import Entry, Session
 from fw1394.fuzz.settings import Settings
 from fw1394.fuzz.shrink import shrink
 from fw1394.fuzz.target import Target, TargetGone
-from fw1394.fuzz.targets import open_session, target_kind
+from fw1394.fuzz.targets import open_trial, target_kind
+from fw1394.fuzz.trial import Entry, Trial
 from fw1394.packets import AsyncPacket
 
 #: Cases between two looks at the clock and the progress bar.
@@ -37,38 +37,38 @@ _REMOTE_SHRINK_BUDGET = 20
 def run(settings: Settings, progress: Progress | None = None) -> Report:
     """Fuzz the target of ``settings`` until a limit; the report (findings shrunk)."""
     seeds = corpus.load(settings.corpus)
-    session = open_session(settings)
+    trial = open_trial(settings)
     report = Report(settings)
     if target_kind(settings) is None:
         report.notes.append("no --model: replies are checked for presence and routing only")
     try:
-        _loop(session, settings, seeds, report, progress)
+        _loop(trial, settings, seeds, report, progress)
     finally:
         if progress is not None:
             progress.close()
     shrunk: list[Finding] = []
     try:
         for finding in report.findings:
-            shrunk.append(_shrunk(finding, settings, session))
+            shrunk.append(_shrunk(finding, settings, trial))
     except KeyboardInterrupt:
         # A second Ctrl-C: keep the rest as found rather than lose them.
         report.notes.append("shrinking interrupted: the remaining findings are as found")
         report.findings = shrunk + report.findings[len(shrunk) :]
     else:
         report.findings = shrunk
-    session.target.close()
+    trial.target.close()
     return report
 
 
 def _loop(
-    session: Session,
+    trial: Trial,
     settings: Settings,
     seeds: list[bytes],
     report: Report,
     progress: Progress | None,
 ) -> None:
-    target = session.target
-    generator = Generator(target.node_id, session.model, random.Random(settings.seed), seeds)
+    target = trial.target
+    generator = Generator(target.node_id, trial.model, random.Random(settings.seed), seeds)
     found: dict[tuple[str, str], Finding] = {}
     kinds, labels, addressing = report.kinds, report.labels, report.addressing
     limit = settings.max_cases
@@ -76,26 +76,26 @@ def _loop(
     deadline = start + settings.duration if settings.duration else None
     cases = 0
     report.stopped = "max-cases"
-    first = session.sweep()
+    first = trial.sweep()
     if first and not target.restartable:
         report.notes.append(
             "the node's registers differed from a freshly powered-up model before the first "
             "case: restart the node before a campaign, or leave out --model"
         )
-    _record(first, session, settings, found, report, 0)
+    _record(first, trial, settings, found, report, 0)
     try:
         while limit is None or cases < limit:
             raw, label = generator.case()
             cases += 1
-            violations = session.case(raw, label)
-            packet = session.last_wire.packet
+            violations = trial.case(raw, label)
+            packet = trial.last_wire.packet
             kinds[packet.kind if packet is not None else "undecodable"] += 1
             labels[label] += 1
             addressing[_addressed(packet, target.node_id)] += 1
             if violations:
-                _record(violations, session, settings, found, report, cases)
-            if session.broken:
-                _recover(session, settings, report)
+                _record(violations, trial, settings, found, report, cases)
+            if trial.broken:
+                _recover(trial, settings, report)
             if cases % _STRIDE == 0:
                 if deadline is not None and time.monotonic() >= deadline:
                     report.stopped = "duration"
@@ -108,7 +108,7 @@ def _loop(
         report.stopped = "interrupted"
     report.cases = cases
     report.elapsed = time.monotonic() - start
-    report.checks.update(session.checks)
+    report.checks.update(trial.checks)
     report.findings = list(found.values())
     if progress is not None:
         progress.update(cases, len(found), force=True)
@@ -116,7 +116,7 @@ def _loop(
 
 def _record(
     violations: list[Violation],
-    session: Session,
+    trial: Trial,
     settings: Settings,
     found: dict[tuple[str, str], Finding],
     report: Report,
@@ -135,30 +135,30 @@ def _record(
             expected=violation.expected,
             observed=violation.observed,
             case=case,
-            label=next((e.label for e in reversed(session.stream) if e.role == "case"), ""),
-            stream=list(session.stream),
+            label=next((e.label for e in reversed(trial.stream) if e.role == "case"), ""),
+            stream=list(trial.stream),
         )
 
 
-def _recover(session: Session, settings: Settings, report: Report) -> None:
+def _recover(trial: Trial, settings: Settings, report: Report) -> None:
     """Carry on after a crash or a wedge: a fresh node, or wait for the old one."""
-    if session.target.restartable:
-        session.restart(open_session(settings, session.target).reference)
+    if trial.target.restartable:
+        trial.restart(open_trial(settings, trial.target).reference)
         report.checks["restarts"] += 1
         return
-    if session.target.problem() is not None:
-        raise TargetGone(session.target.problem() or "")
+    if trial.target.problem() is not None:
+        raise TargetGone(trial.target.problem() or "")
     limit = time.monotonic() + settings.dead_after
     while time.monotonic() < limit:
-        session.broken = False
-        session.sweep()
-        if not session.broken:
+        trial.broken = False
+        trial.sweep()
+        if not trial.broken:
             return
     raise TargetGone(f"no answer for {settings.dead_after} s")
 
 
-def _shrunk(finding: Finding, settings: Settings, session: Session) -> Finding:
-    target = session.target
+def _shrunk(finding: Finding, settings: Settings, trial: Trial) -> Finding:
+    target = trial.target
     if target.restartable:
         return shrink(finding, replayer(settings, target), settings.shrink_budget)
     # A remote node cannot start afresh: whatever its state has become stays, so only
@@ -179,7 +179,7 @@ def replayer(settings: Settings, target: Target) -> Callable[[list[Entry]], set[
     def replay(stream: list[Entry]) -> set[tuple[str, str]]:
         if target.restartable:
             target.restart()
-        fresh = open_session(settings, target)
+        fresh = open_trial(settings, target)
         violations = fresh.replay(stream, keep_times=target.restartable)
         return {(v.oracle, v.signature) for v in violations}
 

@@ -1,6 +1,6 @@
-"""Clocks for a fuzzing session: simulated (in-process, repeatable) or the wall clock.
+"""Clocks for a fuzzing trial: simulated (in-process, repeatable) or the wall clock.
 
-In-process the session owns time. It advances by a small step per case, and
+In-process the trial owns time. It advances by a small step per case, and
 now and then by a long jump: a board's watchdog only fires after tens of
 milliseconds without a write, which no run of back-to-back cases would reach.
 The time handed out moves in quanta of a quarter millisecond (the snake
@@ -36,7 +36,7 @@ class SimulatedClock:
 
 
 class WallClock:
-    """Seconds since the session started (a remote node keeps its own time anyway)."""
+    """Seconds since the trial started (a remote node keeps its own time anyway)."""
 
     def __init__(self) -> None:
         self._start = time.monotonic()

@@ -14,7 +14,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from fw1394.fuzz.session import Entry
+from fw1394.fuzz.trial import Entry
 
 FORMAT = "fw1394-fuzz-finding/1"
 

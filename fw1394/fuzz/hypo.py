@@ -24,12 +24,12 @@ from fw1394.fuzz.campaign import replayer
 from fw1394.fuzz.findings import Finding
 from fw1394.fuzz.judge import Violation
 from fw1394.fuzz.report import Report
-from fw1394.fuzz.session import Entry
 from fw1394.fuzz.settings import Settings, SettingsError
 from fw1394.fuzz.shrink import shrink
 from fw1394.fuzz.strategies import fuzz_cases
 from fw1394.fuzz.target import Target
-from fw1394.fuzz.targets import open_session, open_target, target_kind
+from fw1394.fuzz.targets import open_target, open_trial, target_kind
+from fw1394.fuzz.trial import Entry
 
 #: Cases per example at most: enough for bugs that need some state first.
 MAX_CASES_PER_EXAMPLE = 8
@@ -112,23 +112,23 @@ def _one_run(
     @given(cases)
     def example(raws: list[bytes]) -> None:
         target.restart()
-        session = open_session(settings, target)
+        trial = open_trial(settings, target)
         try:
             for number, raw in enumerate(raws, 1):
                 budget.spent += 1
-                violations = session.case(raw, "hypothesis")
-                packet = session.last_wire.packet
+                violations = trial.case(raw, "hypothesis")
+                packet = trial.last_wire.packet
                 report.kinds[packet.kind if packet is not None else "undecodable"] += 1
                 for violation in violations:
                     report.violations[violation.oracle] += 1
                     key = (violation.oracle, violation.signature)
                     if key not in budget.known:
-                        last[key] = (violation, list(session.stream), number)
+                        last[key] = (violation, list(trial.stream), number)
                         raise _Found(f"{key[0]}:{key[1]}")
-                if session.broken:
+                if trial.broken:
                     return
         finally:
-            report.checks.update(session.checks)
+            report.checks.update(trial.checks)
 
     try:
         example()

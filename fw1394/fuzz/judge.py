@@ -2,7 +2,7 @@
 
 :func:`difference` finds the first way an observed reply differs from the
 expected one, looking only at what the transport shows and the model vouches
-for; the session turns differences into :class:`Violation` records, one
+for; the trial turns differences into :class:`Violation` records, one
 oracle each.
 """
 

@@ -15,7 +15,7 @@ from dataclasses import replace
 from fw1394.fuzz.findings import Finding
 from fw1394.fuzz.malform import header_of, recomputed_crcs, with_header
 from fw1394.fuzz.mutate import delete_quadlet
-from fw1394.fuzz.session import Entry
+from fw1394.fuzz.trial import Entry
 
 #: Replays the finding's stream on a fresh node; the (oracle, signature) pairs seen.
 Replayer = Callable[[list[Entry]], set[tuple[str, str]]]

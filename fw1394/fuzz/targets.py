@@ -15,9 +15,9 @@ from fw1394.fuzz.clock import SimulatedClock, WallClock
 from fw1394.fuzz.contract import CONTRACTS
 from fw1394.fuzz.offsets import OffsetModel, offset_model
 from fw1394.fuzz.reference import Reference
-from fw1394.fuzz.session import Session
 from fw1394.fuzz.settings import DEFAULT_POLICIES, Settings, SettingsError
 from fw1394.fuzz.target import Target
+from fw1394.fuzz.trial import Trial
 from fw1394.node.boards import BOARDS
 from fw1394.node.boards.qla1 import BOARD_DEFECTS as QLA1_DEFECTS
 from fw1394.node.boards.snake2010 import BOARD_DEFECTS as SNAKE2010_DEFECTS
@@ -122,11 +122,11 @@ def offsets_for(settings: Settings) -> OffsetModel:
     return OffsetModel(model.registers, model.sweep, settings.probe_offset, model.quadlet_index)
 
 
-def open_session(settings: Settings, target: Target | None = None) -> Session:
-    """A session on ``target`` (opened from the settings when not given)."""
+def open_trial(settings: Settings, target: Target | None = None) -> Trial:
+    """A trial on ``target`` (opened from the settings when not given)."""
     target = target or open_target(settings)
     clock = SimulatedClock(settings.seed) if target.restartable else WallClock()
-    return Session(
+    return Trial(
         target,
         reference_for(settings, target),
         offsets_for(settings),

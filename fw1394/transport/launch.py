@@ -29,7 +29,7 @@ class LaunchedBus:
 
     ``attached=True`` (tests): the supervisor dies with this process, so a test
     that crashes leaves nothing behind. ``attached=False`` (``fw1394 bus up``):
-    it runs in its own session until :meth:`stop`.
+    it runs detached (setsid) until :meth:`stop`.
     """
 
     def __init__(

@@ -1,9 +1,9 @@
-"""One fuzzing session: a target, its reference model, a clock, and the oracles.
+"""One fuzzing trial: a target, its reference model, a clock, and the oracles.
 
-:meth:`Session.case` sends one case with whatever follows it (a read-back of
+:meth:`Trial.case` sends one case with whatever follows it (a read-back of
 a write, the liveness probe, now and then a sweep of the board's registers),
 has the model answer the same packets, and returns the violations. Every
-packet sent is kept, with its role and time, in :attr:`Session.stream`, so a
+packet sent is kept, with its role and time, in :attr:`Trial.stream`, so a
 finding can be replayed and shrunk from the packets that led to it.
 """
 
@@ -51,7 +51,7 @@ class _Sent(NamedTuple):
     label: str
 
 
-class Session:
+class Trial:
     """Cases against ``target``, judged against ``reference``."""
 
     def __init__(
@@ -118,7 +118,7 @@ class Session:
         """Send recorded entries again, one batch each, judged by their roles.
 
         ``keep_times``: at the recorded times (a fresh in-process node); otherwise
-        on the session's clock (a remote node keeps its own time anyway).
+        on the trial's clock (a remote node keeps its own time anyway).
         """
         found: list[Violation] = []
         for entry in entries:
