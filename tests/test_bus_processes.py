@@ -205,9 +205,69 @@ def test_cli_rejects_bad_input_without_tracebacks(capsys: pytest.CaptureFixture[
     assert main(["bus", "up", "--name", bus_name("x"), "--nodes", "1", "--board", "nope"]) == 2
     assert main(["write", "0", "0x0", "0x1ffffffff"]) == 2
     assert main(["lock", "0", "0x0", "compare_swap", "1"]) == 2
+    # Lengths the 1394 field allows but one datagram cannot carry.
+    assert main(["read", "0", "0x0", "--length", "65535"]) == 2
+    assert main(["write", "0", "0x0", *["0x0"] * 16_365]) == 2
     err = capsys.readouterr().err
-    assert "Traceback" not in err and err.count("fw1394: error:") == 6
+    assert "Traceback" not in err and err.count("fw1394: error:") == 8
+    assert "outside 1..65448" in err and "at most 65456" in err
 
 
 def test_no_process_is_left_behind() -> None:
     assert wait_until_gone(PREFIX) == []
+
+
+def test_a_response_too_large_for_a_datagram_is_dropped_not_fatal(tmp_path: Path) -> None:
+    """A 65,535-byte block read: the board answers, no datagram can carry it.
+
+    The node must ack the request, report the dropped response on stderr and go
+    on serving; the host refuses such a read before it reaches the bus.
+    """
+    import subprocess
+
+    from test_bus_support import node_command
+
+    from fw1394.packets import BlockReadRequest
+    from fw1394.packets.fast import encode_packet
+    from fw1394.transport.host import LOCAL_BUS, MAX_BLOCK_READ
+    from fw1394.transport.wire import FrameKind
+
+    name = bus_name("oversize")
+    log = tmp_path / "node.log"
+    with open(log, "wb") as errors:
+        node = subprocess.Popen(
+            node_command(name, 0, "--memory-size", str(1 << 17), *FAST_ARGS),
+            stdin=subprocess.DEVNULL,
+            stderr=errors,
+        )
+    try:
+        with port_on(BusConfig(name)) as port:
+            limit = time.monotonic() + 30
+            while not port.nodes() and time.monotonic() < limit:
+                port.poll(0.05)
+            with pytest.raises(ValueError, match="one datagram"):
+                port.start_read_block(0, 0, MAX_BLOCK_READ + 1)
+            assert len(port.read_block(0, 0, MAX_BLOCK_READ)) == MAX_BLOCK_READ
+            # Past the host's guard, as a fuzzer or foreign host would send it.
+            me = LOCAL_BUS << 6 | port.phy_id
+            request = BlockReadRequest(
+                destination_id=LOCAL_BUS << 6, tlabel=5, source_id=me, offset=0, data_length=65535
+            )
+            sequence = port.station.send(int(FrameKind.async_packet), 0, encode_packet(request))
+            acked = None
+            limit = time.monotonic() + 2.0
+            while acked is None and time.monotonic() < limit:
+                frame = port.station.receive()
+                if frame is not None and frame[0].kind == FrameKind.ack:
+                    acked = frame
+            assert acked is not None, "the oversized request was never acked"
+            _, payload = acked
+            assert payload[0] >> 4 == AckCode.ack_pending
+            assert int.from_bytes(payload[4:8], "big") == sequence
+            assert len(payload) == 8  # the ack alone: its response could not follow
+            assert node.poll() is None, "the node died"
+            port.write_quadlet(0, 0x10, 0x600DF00D)
+            assert port.read_quadlet(0, 0x10) == 0x600DF00D
+    finally:
+        stop(node)
+    assert "response to node" in log.read_text() and "65507-byte" in log.read_text()

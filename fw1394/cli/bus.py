@@ -378,8 +378,11 @@ def node_run(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
 
+    def warn(text: str) -> None:
+        print(f"fw1394 node: warning: {text}", file=sys.stderr)
+
     try:
-        run_node(space, options, on_reset=None if args.quiet else log)
+        run_node(space, options, on_reset=None if args.quiet else log, on_warning=warn)
     except BusRefusedError as error:
         raise CliError(f"bus {config.name!r} refused this node: {error}") from None
     except OSError as error:

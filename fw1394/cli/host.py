@@ -114,8 +114,11 @@ def _report(args: argparse.Namespace, result: dict[str, Any], text: str) -> None
 
 
 def run_read(args: argparse.Namespace) -> int:
-    if not 0 < args.length < 1 << 16:
-        raise CliError(f"--length {args.length} is outside 1..65535")
+    from fw1394.transport.host import MAX_BLOCK_READ
+
+    if not 0 < args.length <= MAX_BLOCK_READ:
+        # The 1394 field allows 65535, but the answer must fit one datagram.
+        raise CliError(f"--length {args.length} is outside 1..{MAX_BLOCK_READ}")
     if args.node == 63:
         raise CliError("reads cannot be broadcast (node 63)")
 
@@ -135,7 +138,11 @@ def run_read(args: argparse.Namespace) -> int:
 
 
 def run_write(args: argparse.Namespace) -> int:
+    from fw1394.transport.host import MAX_BLOCK_WRITE
+
     data = b"".join(_quadlet(value) for value in args.values)
+    if len(data) > MAX_BLOCK_WRITE:
+        raise CliError(f"{len(data)} bytes of data: a write carries at most {MAX_BLOCK_WRITE}")
 
     def action(port: Any) -> None:
         if len(data) == 4 and not args.block:

@@ -28,6 +28,7 @@ from fw1394.transport.wire import (
     NO_BOARD,
     FrameHeader,
     FrameKind,
+    FrameTooLarge,
     ack_byte,
 )
 
@@ -78,6 +79,10 @@ class Node:
         self._running = True
         #: Called with each bus reset this node takes part in (for logs).
         self.on_reset: Callable[[BusReset], None] | None = None
+        #: Called with a line of text when the node must drop something it made.
+        self.on_warning: Callable[[str], None] | None = None
+        #: Responses too large for one datagram (acked, then dropped).
+        self.oversized_responses = 0
 
     def stop(self) -> None:
         self._running = False
@@ -90,14 +95,14 @@ class Node:
             deadline = 0.0
             while self._running:
                 frame = receive()
+                now = clock()  # when the frame arrived: one clock reading serves the turn
                 if frame is None:
                     # Bus management (or a quiet poll): the responder must learn its new
                     # physical ID before it answers the first packet of a new generation.
                     self._apply_changes()
                     deadline = min(deadline, station.next_deadline())
                 elif frame[0].kind == _ASYNC_PACKET:
-                    on_packet(frame[0], frame[1])
-                now = clock()
+                    on_packet(frame[0], frame[1], now)
                 if now >= deadline or now >= station.wake_by:
                     station.service(now)
                     self._apply_changes()
@@ -114,37 +119,51 @@ class Node:
             elif isinstance(change, Refused):
                 raise BusRefusedError(change.reason)
 
-    def _on_packet(self, header: FrameHeader, payload: bytes) -> None:
+    def _on_packet(self, header: FrameHeader, payload: bytes, now: float) -> None:
         station = self.station
         membership = station.membership
         if header.generation != membership.generation or membership.phy_id is None:
             return  # a packet of another generation never reaches a link after a reset
         # The responder sets the board's clock from this: ticks since the node started.
-        reply = self.responder.receive(payload, time.monotonic() - self._epoch)
+        reply = self.responder.receive(payload, now - self._epoch)
         requester = header.sender_phy
-        if reply.ack is None:
-            if reply.response is not None:
-                station.send(_ASYNC_PACKET, requester, encode_packet(reply.response))
-            return
-        tlabel = payload[2] >> 2 if len(payload) >= 3 else 0
         response = b"" if reply.response is None else encode_packet(reply.response)
-        ack = ACK_PAYLOAD.pack(_ACK_BYTES[reply.ack], tlabel, 0, header.sequence)
-        if reply.concatenated:
-            station.send(_ACK, requester, ack + response)
-            return
-        station.send(_ACK, requester, ack)
+        if reply.ack is not None:
+            tlabel = payload[2] >> 2 if len(payload) >= 3 else 0
+            ack = ACK_PAYLOAD.pack(_ACK_BYTES[reply.ack], tlabel, 0, header.sequence)
+            if reply.concatenated:
+                try:
+                    station.send(_ACK, requester, ack + response)
+                    return
+                except FrameTooLarge as error:
+                    self._drop_response(requester, error)
+                    response = b""  # the ack alone still goes out
+            station.send(_ACK, requester, ack)
         if response:
-            station.send(_ASYNC_PACKET, requester, response)
+            try:
+                station.send(_ASYNC_PACKET, requester, response)
+            except FrameTooLarge as error:
+                self._drop_response(requester, error)
+
+    def _drop_response(self, requester: int, error: FrameTooLarge) -> None:
+        # The board answered (a real FPGA sends any length it is asked for) but no
+        # datagram carries the answer: it is lost as on an overrun link, and the loss
+        # is reported rather than silent. The requester's transaction times out.
+        self.oversized_responses += 1
+        if self.on_warning is not None:
+            self.on_warning(f"response to node {requester} dropped: {error}")
 
 
 def run_node(
     space: AddressSpace,
     options: NodeOptions,
     on_reset: Callable[[BusReset], None] | None = None,
+    on_warning: Callable[[str], None] | None = None,
 ) -> None:
     """Run a node in the foreground until SIGINT or SIGTERM; leave the bus cleanly."""
     node = Node(space, options)
     node.on_reset = on_reset
+    node.on_warning = on_warning
 
     def stop(signum: int, frame: FrameType | None) -> None:
         node.stop()

@@ -17,7 +17,7 @@ import time
 from typing import Self
 
 from fw1394.engine import Event, FailureReason, Requester, TransactionEvent, TransactionFailed
-from fw1394.packets import RCode, name_of
+from fw1394.packets import BlockReadResponse, RCode, name_of
 from fw1394.packets.fast import decode_packet, encode_packet
 from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig
@@ -25,6 +25,8 @@ from fw1394.transport.membership import BusReset, Excluded, Refused, Timing
 from fw1394.transport.station import Station
 from fw1394.transport.wire import (
     ACK_PAYLOAD,
+    HEADER_SIZE,
+    MAX_DATAGRAM,
     FrameHeader,
     FrameKind,
     MemberInfo,
@@ -42,6 +44,12 @@ _ASYNC_PACKET, _ACK = int(FrameKind.async_packet), int(FrameKind.ack)
 #: Wire byte of each ack code (code and parity), looked up rather than computed.
 _ACK_BYTES = tuple(ack_byte(code) for code in range(16))
 _ACK_SIZE = ACK_PAYLOAD.size
+#: Header, header CRC and data CRC of a block packet: what a block adds to its data.
+_BLOCK_OVERHEAD = len(encode_packet(BlockReadResponse(destination_id=0, tlabel=0, source_id=0)))
+#: The longest block whose read response still fits one datagram behind an ack (a
+#: concatenated response), and the longest block write request that fits one.
+MAX_BLOCK_READ = (MAX_DATAGRAM - HEADER_SIZE - _ACK_SIZE - _BLOCK_OVERHEAD) & ~3
+MAX_BLOCK_WRITE = (MAX_DATAGRAM - HEADER_SIZE - _BLOCK_OVERHEAD) & ~3
 
 
 class BusError(RuntimeError):
@@ -171,6 +179,11 @@ class BusHost:
         return tid
 
     def start_read_block(self, node: int, offset: int, length: int) -> int:
+        if length > MAX_BLOCK_READ:
+            raise ValueError(
+                f"a block read of {length} bytes cannot cross the virtual bus: its response "
+                f"would not fit one datagram (at most {MAX_BLOCK_READ} bytes per read)"
+            )
         self.wait_ready()
         tid = self.requester.read_block(node_id_of(node), offset, length, time.monotonic())
         self._flush_requests()
@@ -183,6 +196,11 @@ class BusHost:
         return tid
 
     def start_write_block(self, node: int, offset: int, data: bytes) -> int:
+        if len(data) > MAX_BLOCK_WRITE:
+            raise ValueError(
+                f"a block write of {len(data)} bytes cannot cross the virtual bus: it would "
+                f"not fit one datagram (at most {MAX_BLOCK_WRITE} bytes per write)"
+            )
         self.wait_ready()
         tid = self.requester.write_block(node_id_of(node), offset, data, time.monotonic())
         self._flush_requests()

@@ -254,7 +254,11 @@ class Membership:
             if not was_coordinator:
                 boss.joins.clear()
                 boss.leaves.clear()
-            boss.last_heard = {m.member_id: now for m in members}
+            # A reset renews no lease: a silent member (an idle host) never sends its
+            # self-ID, and if every repeated self-ID phase renewed its lease it would
+            # never run out, and nobody on the bus would ever be ready.
+            heard = boss.last_heard if was_coordinator else {}
+            boss.last_heard = {m.member_id: heard.get(m.member_id, now) for m in members}
             boss.reset_due, boss.initiator = None, 0
             boss.last_beacon = -math.inf
         raw = self_id_bytes(

@@ -28,11 +28,13 @@ from fw1394.transport.wire import (
     HEADER,
     HEADER_SIZE,
     MAGIC,
+    MAX_DATAGRAM,
     NO_BOARD,
     NO_PHY,
     VERSION,
     FrameHeader,
     FrameKind,
+    FrameTooLarge,
     MemberInfo,
 )
 
@@ -48,6 +50,7 @@ _FIELDS = struct.Struct(">3xBIIIBBBxI")
 _PREFIX = struct.pack(">HB", MAGIC, VERSION)
 _new_header = tuple.__new__
 assert _FIELDS.size == HEADER_SIZE
+_MAX_PAYLOAD = MAX_DATAGRAM - HEADER_SIZE
 
 
 class Station:
@@ -120,7 +123,13 @@ class Station:
 
     # -- sending ----------------------------------------------------------------------
     def send(self, kind: int, destination: int, payload: bytes, speed: int = Speed.S400) -> int:
-        """Put a frame on the bus; its sequence number (acks refer to it)."""
+        """Put a frame on the bus; its sequence number (acks refer to it).
+
+        Raises :class:`FrameTooLarge` (and sends nothing) for a payload no datagram
+        can carry.
+        """
+        if len(payload) > _MAX_PAYLOAD:
+            raise FrameTooLarge(HEADER_SIZE + len(payload))
         sequence = next(self._sequence) & 0xFFFFFFFF
         membership = self.membership
         phy = membership.phy_id
@@ -195,12 +204,16 @@ class Station:
                 self.membership.mark_dead(member.member_id, now)
 
     def _flush_control(self) -> None:
-        for out in self.membership.outgoing():
-            self.send(out.kind, out.destination, out.payload)
+        # The link takes its new address before its self-ID (among these frames)
+        # goes out: a member that has seen every self-ID may address us at once,
+        # and the kernel filters a datagram as it arrives, so one that came in
+        # under the old filter would be lost (docs/virtual-bus.md, "ready").
         phy = self.membership.phy_id
         if phy != self._filtered_phy:
             self.medium.filter_as_member(self.info.member_id, phy, self._drop_acks)
             self._filtered_phy = phy
+        for out in self.membership.outgoing():
+            self.send(out.kind, out.destination, out.payload)
 
     def request_reset(self) -> None:
         self.membership.request_reset(time.monotonic())

@@ -56,6 +56,7 @@ class BusTap:
         self.medium.filter_as_tap()
         self._queue: deque[_Pending] = deque()
         self._waiting: dict[tuple[int, int, int], _Pending] = {}
+        self._last_stamp_ns = 0
         self._closed = False
 
     def __enter__(self) -> BusTap:
@@ -104,6 +105,12 @@ class BusTap:
             header = parse_header(frame)
         except FrameError:
             return
+        # The socket queue is the bus's order. Two members' frames can reach the
+        # kernel on two CPUs within the same microsecond and be stamped the other way
+        # round; on a cable one packet cannot start before the one ahead of it, so a
+        # stamp never goes back (the difference is a few hundred nanoseconds).
+        stamp_ns = max(stamp_ns, self._last_stamp_ns)
+        self._last_stamp_ns = stamp_ns
         payload = frame[HEADER_SIZE:]
         sender = None if header.sender_phy == NO_PHY else header.sender_phy
         base = BusRecord(

@@ -42,6 +42,9 @@ SENDER_OFFSET = 8
 DESTINATION_OFFSET = 17
 #: 63 physical IDs (0-62): node 63 is the broadcast address.
 MAX_MEMBERS = 63
+#: The largest UDP payload IPv4 can carry (65,535 minus the IP and UDP headers):
+#: one frame is one datagram, so this bounds every frame.
+MAX_DATAGRAM = 65_507
 
 
 class FrameKind(IntEnum):
@@ -74,6 +77,14 @@ CONTROL_KINDS = frozenset(
 
 class FrameError(ValueError):
     """Bytes that are not a frame of this bus."""
+
+
+class FrameTooLarge(ValueError):
+    """A frame that does not fit one datagram: the tunnel cannot carry it."""
+
+    def __init__(self, size: int) -> None:
+        self.size = size
+        super().__init__(f"a frame of {size} bytes exceeds the {MAX_DATAGRAM}-byte datagram limit")
 
 
 class FrameHeader(NamedTuple):
