@@ -47,6 +47,20 @@ def percentiles(samples: list[float]) -> dict[str, float]:
     }
 
 
+def cpu_ns(pid: int | str) -> int | None:
+    """CPU time process ``pid`` (or "self") has run so far, in ns; None off Linux.
+
+    Latency on a shared machine moves with whatever else runs; the CPU time each
+    side spends per transaction (user and kernel) moves much less, so before and
+    after a change compare better by it.
+    """
+    try:
+        with open(f"/proc/{pid}/schedstat") as stats:
+            return int(stats.read().split()[0])
+    except (OSError, ValueError, IndexError):
+        return None
+
+
 def timed(action: Callable[[], object], count: int) -> list[float]:
     samples = []
     clock = time.perf_counter
@@ -158,6 +172,48 @@ def multicast_ping_pong(idle: int, filtered: bool, count: int) -> dict[str, floa
         me.close()
 
 
+def subaction_floor(count: int) -> dict[str, float]:
+    """A quadlet read's three frames on the bus, with no work done for them.
+
+    Request (24-byte frame header + 20-byte packet), ack with the response
+    concatenated (24 + 8 + 20), and the requester's ack of that response (24 + 8),
+    between two filtered members of a group: the least any quadlet read on this
+    bus can cost with Python at both ends. Whatever a real read takes beyond it is
+    the codec, the engine and the loops.
+    """
+    config = BusConfig(f"floor{os.getpid()}")
+    tag = config.tag
+    request = FrameHeader(FrameKind.async_packet, tag, 101, 0, 1, 2).pack() + bytes(20)
+    answer = FrameHeader(FrameKind.ack, tag, 102, 0, 2, 1).pack() + bytes(8 + 20)
+    ack = FrameHeader(FrameKind.ack, tag, 101, 0, 1, 2).pack() + bytes(8)
+
+    def responder() -> None:
+        medium = Medium(config)
+        medium.filter_as_member(102, 2, True)  # a node's filter: acks never wake it
+        medium.set_poll_interval(medium.sock, 1.0)
+        while True:
+            if medium.receive() is not None:
+                medium.send(answer)
+
+    pid = _forked(responder)
+    me = _group_socket(config, 101, 1, True)
+    try:
+        time.sleep(0.3)
+        me.set_poll_interval(me.sock, 0.5)
+
+        def once() -> None:
+            me.send(request)
+            me.receive()
+            me.send(ack)
+
+        timed(once, 200)
+        return percentiles(timed(once, count))
+    finally:
+        os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+        me.close()
+
+
 def hub_relay(count: int) -> dict[str, float]:
     """Round trips through a repeater process (host -> hub -> node -> hub -> host)."""
     hub, host, node = (socket.socket(socket.AF_INET, socket.SOCK_DGRAM) for _ in range(3))
@@ -252,6 +308,7 @@ def run(quick: bool) -> dict[str, Any]:
         "cpus": os.cpu_count(),
         "load_average_before": os.getloadavg()[0],
         "raw_udp": raw_ping_pong(samples),
+        "subaction_floor": subaction_floor(samples),
     }
     name = f"bench{os.getpid()}"
     nodes = Nodes(name)
@@ -260,7 +317,15 @@ def run(quick: bool) -> dict[str, Any]:
         with BusPort(BusConfig(name), timing=TIMING) as port:
             wait_for_nodes(port, 1)
             timed(lambda: port.read_quadlet(0, 0), 500)
-            results["quadlet_read"] = percentiles(timed(lambda: port.read_quadlet(0, 0), samples))
+            node_pid = nodes.processes[0].pid
+            before = cpu_ns("self"), cpu_ns(node_pid)
+            reads = timed(lambda: port.read_quadlet(0, 0), samples)
+            after = cpu_ns("self"), cpu_ns(node_pid)
+            results["quadlet_read"] = percentiles(reads)
+            spent = [b - a for a, b in zip(before, after, strict=True) if a and b]
+            if len(spent) == 2:
+                host, node = (round(ns / samples / 1e3, 1) for ns in spent)
+                results["quadlet_read"]["cpu_us"] = {"host": host, "node": node}
             results["quadlet_write"] = percentiles(
                 timed(lambda: port.write_quadlet(0, 0, 1), samples)
             )
@@ -293,6 +358,14 @@ def report(results: dict[str, Any]) -> None:
         row = results[kind]
         print(f"{kind:<27} p50 {row['p50_us']:7.1f} us  p99 {row['p99_us']} us")
     print(f"  read/raw ratio: {read / raw:.2f} (target <= 1.5; thesis hardware: 34.5 us mean)")
+    floor = results["subaction_floor"]["p50_us"]
+    print(
+        f"  the read's three frames with no work done (the floor): p50 {floor:.1f} us, "
+        f"{floor / raw:.2f}x raw; the read costs {read - floor:.1f} us more"
+    )
+    cpu = results["quadlet_read"].get("cpu_us")
+    if cpu:
+        print(f"  CPU per read (user + kernel): host {cpu['host']} us, node {cpu['node']} us")
     blocks = results["block_read_mbit_s"]
     print(
         f"512-quadlet block reads: {blocks['sequential']} Mbit/s sequential, "

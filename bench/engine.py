@@ -14,6 +14,7 @@ it serves). Target: engine / codec < 1.
 from __future__ import annotations
 
 import argparse
+import time
 import timeit
 from collections.abc import Callable
 
@@ -29,8 +30,12 @@ LINK_BATCH = 32
 
 
 def per_call(function: Callable[[], object], seconds: float) -> float:
-    """Best-of-5 seconds per call, each repeat running about ``seconds``."""
-    timer = timeit.Timer(function)
+    """Best-of-5 CPU seconds per call, each repeat running about ``seconds``.
+
+    CPU time, not wall time: on a shared machine a repeat that loses the CPU to
+    another process would otherwise count the other process's work too.
+    """
+    timer = timeit.Timer(function, timer=time.process_time)
     number, _ = timer.autorange()
     number = max(1, int(number * seconds / 0.2))
     return min(timer.repeat(repeat=5, number=number)) / number
