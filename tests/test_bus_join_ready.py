@@ -153,6 +153,23 @@ def test_a_host_joins_beside_an_idle_host(processes: list[subprocess.Popen[bytes
         assert time.monotonic() - started < 3 * TIMING.lease
 
 
+def test_a_host_left_idle_reads_again_at_once(processes: list[subprocess.Popen[bytes]]) -> None:
+    """Idle for a while, within the lease, around its end, well past it: no failure.
+
+    A host runs its timers only inside its calls; the first transaction after a
+    pause must not meet a bus reset that the pause caused.
+    """
+    name = bus_name("pause")
+    processes.append(start_node(name, 0))
+    with port_on(name) as port:
+        assert read_every_node_at_once(port, 1) == {0: "ok"}
+        pauses = (3 * TIMING.heartbeat, TIMING.lease - TIMING.heartbeat / 2, TIMING.lease + 0.5)
+        for pause in pauses:
+            time.sleep(pause)
+            assert outcome(port.wait(port.start_read_quadlet(0, 0))) == "ok", pause
+            assert [m.host for _, m in port.nodes()] == [False]
+
+
 def test_a_reset_does_not_renew_the_lease_of_a_silent_member(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

@@ -7,8 +7,11 @@ blocking :class:`~fw1394.host.port.Port` calls on top.
 
 A host is a bus member like any node (a contender, so it gets the highest
 physical ID and is root). It runs its timers only while inside one of its
-calls: a host left idle for longer than a lease is dropped from the bus and
-quietly joins again (one more bus reset) when it is next used.
+calls, so a host left idle for longer than a lease is dropped from the bus.
+Before its next transaction it catches up: it takes in what the bus said
+meanwhile and, if it was away long enough to be dropped, joins again (one
+bus reset) and waits for the new self-ID phase, so the transaction itself
+never meets a stale generation.
 """
 
 from __future__ import annotations
@@ -114,6 +117,8 @@ class BusHost:
         self._other_events: list[Event] = []
         self._station_due = 0.0
         self._timers_due = 0.0
+        #: When the host last served the bus (its timers run only inside its calls).
+        self._served_at = time.monotonic()
         self.resets: list[BusReset] = []
 
     # -- context manager ----------------------------------------------------------------
@@ -147,6 +152,7 @@ class BusHost:
 
     def wait_ready(self, timeout: float | None = None) -> None:
         """Block until this host is on the bus with its self-ID phase complete."""
+        self._back_if_away()
         membership = self.station.membership
         if membership.ready:
             return
@@ -173,8 +179,7 @@ class BusHost:
 
     # -- transactions (non-blocking starts) ----------------------------------------------
     def start_read_quadlet(self, node: int, offset: int) -> int:
-        self.wait_ready()
-        tid = self.requester.read_quadlet(node_id_of(node), offset, time.monotonic())
+        tid = self.requester.read_quadlet(node_id_of(node), offset, self._on_bus())
         self._flush_requests()
         return tid
 
@@ -184,14 +189,12 @@ class BusHost:
                 f"a block read of {length} bytes cannot cross the virtual bus: its response "
                 f"would not fit one datagram (at most {MAX_BLOCK_READ} bytes per read)"
             )
-        self.wait_ready()
-        tid = self.requester.read_block(node_id_of(node), offset, length, time.monotonic())
+        tid = self.requester.read_block(node_id_of(node), offset, length, self._on_bus())
         self._flush_requests()
         return tid
 
     def start_write_quadlet(self, node: int, offset: int, value: int) -> int:
-        self.wait_ready()
-        tid = self.requester.write_quadlet(node_id_of(node), offset, value, time.monotonic())
+        tid = self.requester.write_quadlet(node_id_of(node), offset, value, self._on_bus())
         self._flush_requests()
         return tid
 
@@ -201,16 +204,14 @@ class BusHost:
                 f"a block write of {len(data)} bytes cannot cross the virtual bus: it would "
                 f"not fit one datagram (at most {MAX_BLOCK_WRITE} bytes per write)"
             )
-        self.wait_ready()
-        tid = self.requester.write_block(node_id_of(node), offset, data, time.monotonic())
+        tid = self.requester.write_block(node_id_of(node), offset, data, self._on_bus())
         self._flush_requests()
         return tid
 
     def start_lock(
         self, node: int, offset: int, extended_tcode: int, argument: bytes, data: bytes
     ) -> int:
-        self.wait_ready()
-        now = time.monotonic()
+        now = self._on_bus()
         tid = self.requester.lock(node_id_of(node), offset, extended_tcode, argument, data, now)
         self._flush_requests()
         return tid
@@ -229,6 +230,7 @@ class BusHost:
 
     def poll(self, timeout: float) -> list[Event]:
         """Serve the bus for ``timeout`` seconds; events other than transaction ends."""
+        self._back_if_away()
         limit = time.monotonic() + timeout
         while time.monotonic() < limit:
             self._pump()
@@ -236,25 +238,54 @@ class BusHost:
         return events
 
     # -- the loop -----------------------------------------------------------------------
+    def _on_bus(self) -> float:
+        """Make sure this host is on the bus, ready, in the current generation; now."""
+        now = time.monotonic()
+        membership = self.station.membership
+        if now - self._served_at > membership.timing.heartbeat:
+            self._come_back(now)
+        elif membership.ready:
+            return now
+        self.wait_ready()
+        return time.monotonic()
+
+    def _back_if_away(self) -> None:
+        now = time.monotonic()
+        if now - self._served_at > self.station.membership.timing.heartbeat:
+            self._come_back(now)
+
+    def _come_back(self, now: float) -> None:
+        # The bus went on without this host: what it said meanwhile comes first, so
+        # that a reset that happened is known before anything is sent.
+        station = self.station
+        away = now - self._served_at
+        for header, payload in station.catch_up():
+            self._take(header, payload, now)
+        self._apply_changes()
+        timing = station.membership.timing
+        if away >= timing.lease - timing.heartbeat:
+            # The coordinator has dropped this host, or may be doing so right now:
+            # a reset that removes it could otherwise still fail the next
+            # transaction. Joining again is one reset, and it is over before any
+            # request goes out.
+            station.rejoin()
+        station.service(now)
+        self._apply_changes()
+        self._station_due = station.next_deadline()
+        self._served_at = now
+
     def _pump(self) -> None:
         station = self.station
         frame = station.receive()
         now = time.monotonic()
+        self._served_at = now
         if frame is None:
             # A management frame (or nothing): a reset must reach the engine before
             # the next packet is sent, or that packet would carry the old generation.
             self._apply_changes()
             self._station_due = min(self._station_due, station.next_deadline())
         else:
-            header, payload = frame
-            membership = station.membership
-            if header.generation == membership.generation and membership.phy_id is not None:
-                kind = header.kind
-                if kind == _ACK:
-                    self._on_ack(header, payload, now)
-                elif kind == _ASYNC_PACKET:
-                    self._on_response(header, payload, now)
-                    self._collect()
+            self._take(frame[0], frame[1], now)
         if now >= self._station_due or now >= station.wake_by:
             station.service(now)
             self._apply_changes()
@@ -268,6 +299,16 @@ class BusHost:
             if due is not None and now >= due:
                 requester.handle_timer(now)
                 self._flush_requests()
+                self._collect()
+
+    def _take(self, header: FrameHeader, payload: bytes, now: float) -> None:
+        membership = self.station.membership
+        if header.generation == membership.generation and membership.phy_id is not None:
+            kind = header.kind
+            if kind == _ACK:
+                self._on_ack(header, payload, now)
+            elif kind == _ASYNC_PACKET:
+                self._on_response(header, payload, now)
                 self._collect()
 
     def _on_ack(self, header: FrameHeader, payload: bytes, now: float) -> None:

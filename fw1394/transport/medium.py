@@ -86,6 +86,13 @@ class Medium:
         except (BlockingIOError, InterruptedError):
             return None
 
+    def receive_queued(self) -> bytes | None:
+        """The next frame already queued, or None at once if there is none."""
+        try:
+            return self.sock.recv(MAX_FRAME, socket.MSG_DONTWAIT)
+        except (BlockingIOError, InterruptedError):
+            return None
+
     def receive_stamped(self) -> tuple[bytes, int] | None:
         """The next frame and its kernel arrival time in ns (needs :meth:`filter_as_tap`)."""
         try:

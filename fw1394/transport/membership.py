@@ -161,6 +161,12 @@ class Membership:
     def leave(self) -> None:
         self._send(FrameKind.leave, EVERY_MEMBER)
 
+    def rejoin(self, now: float) -> None:
+        """Leave and join again at once: the coordinator makes one reset of both."""
+        if self.role is not Role.joining:
+            self.leave()
+            self._rejoin(now)
+
     def receive(self, header: FrameHeader, payload: bytes, now: float) -> None:
         """A frame from another member (any kind; non-management kinds are ignored)."""
         kind = header.kind

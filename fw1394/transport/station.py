@@ -163,11 +163,25 @@ class Station:
         return sequence
 
     # -- receiving --------------------------------------------------------------------
+    def catch_up(self) -> list[tuple[FrameHeader, bytes]]:
+        """Every frame queued while the owner was away, taken without waiting.
+
+        Bus management takes effect in arrival order, as in :meth:`receive`; the
+        data frames are returned in that order.
+        """
+        frames = []
+        while (raw := self.medium.receive_queued()) is not None:
+            frame = self._take(raw)
+            if frame is not None:
+                frames.append(frame)
+        return frames
+
     def receive(self) -> tuple[FrameHeader, bytes] | None:
         """The next data frame (async packet, ack, PHY packet), or None on a quiet poll."""
         raw = self.medium.receive()
-        if raw is None:
-            return None
+        return None if raw is None else self._take(raw)
+
+    def _take(self, raw: bytes) -> tuple[FrameHeader, bytes] | None:
         if raw[:3] != _PREFIX or len(raw) < HEADER_SIZE:
             return None  # not ours: nothing on a real bus answers line noise
         header: FrameHeader = _new_header(FrameHeader, _FIELDS.unpack_from(raw))
@@ -217,6 +231,11 @@ class Station:
 
     def request_reset(self) -> None:
         self.membership.request_reset(time.monotonic())
+        self._flush_control()
+
+    def rejoin(self) -> None:
+        """Leave the bus and join it again (one bus reset)."""
+        self.membership.rejoin(time.monotonic())
         self._flush_control()
 
     def close(self) -> None:
