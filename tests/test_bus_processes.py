@@ -191,6 +191,11 @@ def test_cli_bus_lifecycle(capsys: pytest.CaptureFixture[str]) -> None:
         assert "2 members" in capsys.readouterr().out
         assert main(["bus", "reset", "--name", name]) == 0
         assert "->" in capsys.readouterr().out
+        # Bringing it up again is refused, and the running bus is left as it was.
+        assert main(["bus", "up", "--name", name, "--nodes", "1", *FAST_ARGS]) == 2
+        assert "already up" in capsys.readouterr().err
+        assert main(["bus", "status", "--name", name]) == 0
+        assert "2 members" in capsys.readouterr().out
     finally:
         assert main(["bus", "down", "--name", name]) == 0
     assert wait_until_gone(name) == []

@@ -238,7 +238,7 @@ def _bus_handler(action: str) -> Any:
 
 # -- handlers -----------------------------------------------------------------------------
 def bus_up(args: argparse.Namespace) -> int:
-    from fw1394.transport.launch import LaunchedBus, LaunchError
+    from fw1394.transport.launch import AlreadyUpError, LaunchedBus, LaunchError
     from fw1394.transport.runtime import prepare
 
     config = bus_config(args)
@@ -269,6 +269,8 @@ def bus_up(args: argparse.Namespace) -> int:
     try:
         bus.start(timeout=args.timeout)
         view = bus.wait_members(timeout=args.timeout)
+    except AlreadyUpError as error:
+        raise CliError(str(error)) from None  # the running bus is not ours to stop
     except LaunchError as error:
         bus.stop()
         raise CliError(f"{error} (log: {log})") from None

@@ -24,6 +24,10 @@ class LaunchError(RuntimeError):
     """The bus did not come up."""
 
 
+class AlreadyUpError(LaunchError):
+    """A bus of that name is already running here; it was left alone."""
+
+
 class LaunchedBus:
     """A supervisor and its ``nodes`` node processes on bus ``config.name``.
 
@@ -84,7 +88,7 @@ class LaunchedBus:
 
     def start(self, timeout: float = 30.0) -> None:
         if supervisor_alive(self.directory) is not None:
-            raise LaunchError(f"bus {self.config.name!r} is already up (fw1394 bus down first)")
+            raise AlreadyUpError(f"bus {self.config.name!r} is already up (fw1394 bus down first)")
         output = open(self.log, "ab") if self.log else subprocess.DEVNULL  # noqa: SIM115
         try:
             self.process = subprocess.Popen(
