@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import time
@@ -185,6 +186,9 @@ def test_cli_bus_lifecycle(capsys: pytest.CaptureFixture[str]) -> None:
         assert capsys.readouterr().out.strip() == "00000abc"
         assert main(["read", "--name", name, "1", "0x3"]) == 1
         assert "address_error" in capsys.readouterr().err
+        assert main(["read", "--name", name, "1", "0x3", "--json"]) == 1
+        failed = json.loads(capsys.readouterr().out)
+        assert failed["error"] == {"reason": "rcode_error", "rcode": "resp_address_error"}
         assert main(["read", "--name", name, "9", "0x0"]) == 2
         assert "no node 9" in capsys.readouterr().err
         assert main(["bus", "status", "--name", name]) == 0

@@ -13,7 +13,7 @@ from typing import Any
 
 from fw1394.cli.bus import add_bus_options, add_member_options, bus_config, host_port
 from fw1394.cli.common import CliError, fail, integer, quadlets_hex
-from fw1394.packets import ExtendedTCode
+from fw1394.packets import ExtendedTCode, RCode, name_of
 
 LOCK_OPERATIONS = {
     name: int(ExtendedTCode[name])
@@ -102,11 +102,29 @@ def _transact(args: argparse.Namespace, what: str, action: Any) -> Any:
         except BusError as error:
             raise CliError(str(error)) from None
         except TransactionError as error:
-            raise _Failed(f"{what} of node {args.node} at {args.offset:#x}: {error}") from None
+            failure = {"reason": str(error.reason)}
+            if error.failure.rcode is not None:
+                failure["rcode"] = name_of(RCode, error.failure.rcode)
+            if error.failure.detail:
+                failure["detail"] = error.failure.detail
+            message = f"{what} of node {args.node} at {args.offset:#x}: {error}"
+            raise _Failed(message, failure) from None
 
 
 class _Failed(Exception):
     """A transaction that failed on the bus (exit status 1, not a usage error)."""
+
+    def __init__(self, message: str, failure: dict[str, str]) -> None:
+        super().__init__(message)
+        self.failure = failure
+
+
+def _failed(args: argparse.Namespace, error: _Failed) -> int:
+    # Scripts asking for JSON get the failure as JSON on stdout too, not only the
+    # line on stderr: {"node": 0, "offset": 3, "error": {"reason": ..., "rcode": ...}}.
+    if args.json:
+        print(json.dumps({"node": args.node, "offset": args.offset, "error": error.failure}))
+    return fail(str(error), 1)
 
 
 def _report(args: argparse.Namespace, result: dict[str, Any], text: str) -> None:
@@ -131,7 +149,7 @@ def run_read(args: argparse.Namespace) -> int:
     try:
         data = _transact(args, "read", action)
     except _Failed as error:
-        return fail(str(error), 1)
+        return _failed(args, error)
     result = {"node": args.node, "offset": args.offset, "length": len(data), "data": data.hex()}
     _report(args, result, quadlets_hex(data))
     return 0
@@ -153,7 +171,7 @@ def run_write(args: argparse.Namespace) -> int:
     try:
         _transact(args, "write", action)
     except _Failed as error:
-        return fail(str(error), 1)
+        return _failed(args, error)
     result = {"node": args.node, "offset": args.offset, "length": len(data), "written": True}
     _report(args, result, f"wrote {len(data)} bytes to node {args.node} at {args.offset:#x}")
     return 0
@@ -177,7 +195,7 @@ def run_lock(args: argparse.Namespace) -> int:
     try:
         old = _transact(args, "lock", action)
     except _Failed as error:
-        return fail(str(error), 1)
+        return _failed(args, error)
     result = {"node": args.node, "offset": args.offset, "operation": operation, "old": old.hex()}
     _report(args, result, quadlets_hex(old))
     return 0
