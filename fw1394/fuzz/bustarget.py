@@ -14,8 +14,6 @@ import time
 from fw1394.fuzz.target import Observed, TargetCrash, TargetGone, Wire
 from fw1394.fuzz.tunnel import Replies
 from fw1394.fuzz.udptarget import TUNNEL_VISIBILITY
-from fw1394.packets import QuadletReadRequest
-from fw1394.packets.fast import encode_packet
 from fw1394.transport.config import BusConfig, BusNameError
 from fw1394.transport.procs import pid_namespace, process_alive
 from fw1394.transport.station import Station
@@ -24,7 +22,6 @@ from fw1394.transport.wire import FrameKind, MemberInfo
 LOCAL_BUS = 0x3FF
 _POLL = 0.002
 _JOIN_TIMEOUT = 10.0
-_SETTLE_POLL = 0.05
 _DATA_KINDS = frozenset({FrameKind.ack, FrameKind.async_packet})
 
 
@@ -44,7 +41,6 @@ class BusTarget:
         self._due = 0.0
         try:
             self.member = self._join()
-            self._settle()
         except BaseException:
             self.station.close()
             raise
@@ -75,21 +71,6 @@ class BusTarget:
                 what = "no node with that physical ID" if membership.ready else "no bus heard"
                 raise TargetGone(f"{self.description}: {what} within {_JOIN_TIMEOUT} s")
             self._pump()
-
-    def _settle(self) -> None:
-        """Wait until the node answers: right after the bus reset our joining caused,
-        a node may still drop packets of the new generation for a moment."""
-        probe = QuadletReadRequest(destination_id=self.node_id, source_id=LOCAL_BUS << 6 | 62)
-        raw = encode_packet(probe)
-        wire = Wire(raw, probe, False)
-        limit = time.monotonic() + _JOIN_TIMEOUT
-        timeout, self.timeout = self.timeout, _SETTLE_POLL
-        try:
-            while self.exchange([wire], 0.0)[0].ack is None:
-                if time.monotonic() > limit:
-                    raise TargetGone(f"{self.description}: the node does not answer")
-        finally:
-            self.timeout = timeout
 
     def _pump(self) -> tuple[int, int, bytes] | None:
         """One frame from the node (kind, sequence, payload), after any bus housekeeping."""
