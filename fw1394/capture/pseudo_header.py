@@ -81,18 +81,35 @@ class PseudoHeader:
         return flag_value(self.flags, name)
 
 
+# Bits of the flags word, looked up once: encode_flags runs for every captured packet.
+_DIRECTION_SHIFT = FIELDS["flags.direction"].lsb
+_CRC_PRESENT, _CRC_VALID, _CRC_PLACEHOLDER, _ACK_PRESENT, _PARTIAL, _TIME_UNKNOWN = (
+    flag_bit(name)
+    for name in (
+        "crc_present",
+        "crc_valid",
+        "crc_placeholder",
+        "ack_present",
+        "partial",
+        "time_unknown",
+    )
+)
+
+
 def encode_flags(record: BusRecord, crc_valid: bool) -> int:
-    flags = int(record.direction) << FIELDS["flags.direction"].lsb
-    for name, on in (
-        ("crc_present", record.crc_present),
-        ("crc_valid", record.crc_present and crc_valid and not record.crc_placeholder),
-        ("crc_placeholder", record.crc_placeholder),
-        ("ack_present", record.ack is not None),
-        ("partial", record.partial),
-        ("time_unknown", not record.time_known),
-    ):
-        if on:
-            flags |= flag_bit(name)
+    flags = int(record.direction) << _DIRECTION_SHIFT
+    if record.crc_present:
+        flags |= _CRC_PRESENT
+        if crc_valid and not record.crc_placeholder:
+            flags |= _CRC_VALID
+    if record.crc_placeholder:
+        flags |= _CRC_PLACEHOLDER
+    if record.ack is not None:
+        flags |= _ACK_PRESENT
+    if record.partial:
+        flags |= _PARTIAL
+    if not record.time_known:
+        flags |= _TIME_UNKNOWN
     return flags
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import time
 from collections import deque
 from collections.abc import Iterator
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 from fw1394.capture.record import BusRecord, RecordType
 from fw1394.transport.config import BusConfig
@@ -113,28 +113,22 @@ class BusTap:
         self._last_stamp_ns = stamp_ns
         payload = frame[HEADER_SIZE:]
         sender = None if header.sender_phy == NO_PHY else header.sender_phy
-        base = BusRecord(
-            timestamp_ns=stamp_ns,
-            record_type=RecordType.bus_reset,
-            data=b"",
-            generation=header.generation,
-            sender=sender,
-            speed=header.speed,
-        )
         kind = header.kind
         if kind == FrameKind.bus_reset:
-            self._push(base, None)
+            self._push(_record(header, stamp_ns, sender, RecordType.bus_reset, b""), None)
         elif kind == FrameKind.phy_packet:
-            self._push(replace(base, record_type=RecordType.phy_packet, data=payload), None)
+            self._push(_record(header, stamp_ns, sender, RecordType.phy_packet, payload), None)
         elif kind == FrameKind.async_packet:
-            record = replace(base, record_type=RecordType.async_packet, data=payload)
+            record = _record(header, stamp_ns, sender, RecordType.async_packet, payload)
             acked = header.destination != BROADCAST_PHY and sender is not None
             key = (header.generation, header.sender_phy, header.sequence) if acked else None
             self._push(record, key)
         elif kind == FrameKind.ack:
-            self._take_ack(base, header, payload)
+            self._take_ack(header, stamp_ns, sender, payload)
 
-    def _take_ack(self, base: BusRecord, header: FrameHeader, payload: bytes) -> None:
+    def _take_ack(
+        self, header: FrameHeader, stamp_ns: int, sender: int | None, payload: bytes
+    ) -> None:
         # An ack frame goes to the sender of the packet it acknowledges.
         generation, acked_sender = header.generation, header.destination
         try:
@@ -143,17 +137,36 @@ class BusTap:
             return
         pending = self._waiting.pop((generation, acked_sender, ack.acked_sequence), None)
         if pending is not None:
-            pending.record = replace(pending.record, ack=ack.ack_byte >> 4)
+            acked = pending.record
+            pending.record = BusRecord(
+                acked.timestamp_ns,
+                acked.record_type,
+                acked.data,
+                acked.generation,
+                acked.sender,
+                acked.speed,
+                ack=ack.ack_byte >> 4,
+            )
             pending.key = None
-        self._push(replace(base, record_type=RecordType.ack, data=bytes([ack.ack_byte])), None)
-        if ack.concatenated and base.sender is not None:
+        byte = bytes([ack.ack_byte])
+        self._push(_record(header, stamp_ns, sender, RecordType.ack, byte), None)
+        if ack.concatenated and sender is not None:
             # The response that rode in the same tenure; the requester acks it by the
             # sequence number of this ack frame.
-            response = replace(base, record_type=RecordType.async_packet, data=ack.concatenated)
-            self._push(response, (generation, base.sender, header.sequence))
+            response = _record(
+                header, stamp_ns, sender, RecordType.async_packet, ack.concatenated
+            )
+            self._push(response, (generation, sender, header.sequence))
 
     def _push(self, record: BusRecord, key: tuple[int, int, int] | None) -> None:
         pending = _Pending(record, key, time.monotonic() + self.ack_wait)
         self._queue.append(pending)
         if key is not None:
             self._waiting[key] = pending
+
+
+def _record(
+    header: FrameHeader, stamp_ns: int, sender: int | None, kind: RecordType, data: bytes
+) -> BusRecord:
+    """What a tap knows of a frame; every other field keeps its default."""
+    return BusRecord(stamp_ns, kind, data, header.generation, sender, header.speed)
