@@ -9,8 +9,8 @@ A host is a bus member like any node (a contender, so it gets the highest
 physical ID and is root). It runs its timers only while inside one of its
 calls, so a host left idle for longer than a lease is dropped from the bus.
 Before its next transaction it catches up: it takes in what the bus said
-meanwhile and, if it was away long enough to be dropped, joins again (one
-bus reset) and waits for the new self-ID phase, so the transaction itself
+meanwhile and, if it was away long enough to be dropped, joins again (a bus
+reset) and waits for the new self-ID phase, so the transaction itself
 never meets a stale generation.
 """
 
@@ -239,20 +239,19 @@ class BusHost:
 
     # -- the loop -----------------------------------------------------------------------
     def _on_bus(self) -> float:
-        """Make sure this host is on the bus, ready, in the current generation; now."""
-        now = time.monotonic()
-        membership = self.station.membership
-        if now - self._served_at > membership.timing.heartbeat:
-            self._come_back(now)
-        elif membership.ready:
+        """Make sure this host is on the bus and ready; the time it was sure of it."""
+        now = self._back_if_away()
+        if self.station.membership.ready:
             return now
         self.wait_ready()
         return time.monotonic()
 
-    def _back_if_away(self) -> None:
+    def _back_if_away(self) -> float:
+        """Catch up with the bus if this host has been away from it; now."""
         now = time.monotonic()
         if now - self._served_at > self.station.membership.timing.heartbeat:
             self._come_back(now)
+        return now
 
     def _come_back(self, now: float) -> None:
         # The bus went on without this host: what it said meanwhile comes first, so

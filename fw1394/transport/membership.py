@@ -162,7 +162,11 @@ class Membership:
         self._send(FrameKind.leave, EVERY_MEMBER)
 
     def rejoin(self, now: float) -> None:
-        """Leave and join again at once: the coordinator makes one reset of both."""
+        """Leave and join again at once.
+
+        The coordinator makes one reset of both, or two when its last reset was so
+        recent that it takes the join for one sent before that reset.
+        """
         if self.role is not Role.joining:
             self.leave()
             self._rejoin(now)
