@@ -39,7 +39,12 @@ EXAMPLES = {
 
 def register(subparsers: Any) -> None:
     read = _parser(subparsers, "read", "read a quadlet or a block from a node")
-    read.add_argument("--length", type=integer, default=4, help="bytes (4: quadlet read)")
+    read.add_argument(
+        "--length",
+        type=integer,
+        default=4,
+        help="bytes (4: quadlet read; a block read carries up to 65448, one datagram)",
+    )
     read.set_defaults(handler=run_read)
     write = _parser(subparsers, "write", "write quadlets to a node")
     write.add_argument("values", nargs="+", type=integer, metavar="VALUE", help="quadlets")
