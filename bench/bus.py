@@ -24,11 +24,13 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from fw1394.packets import AckCode, QuadletReadRequest, QuadletReadResponse
+from fw1394.packets.fast import encode_packet
 from fw1394.transport.config import BusConfig
 from fw1394.transport.medium import Medium
 from fw1394.transport.membership import Timing
 from fw1394.transport.port import BusPort
-from fw1394.transport.wire import FrameHeader, FrameKind
+from fw1394.transport.wire import AckPayload, FrameHeader, FrameKind, ack_byte
 
 BLOCK = 2048  # 512 quadlets
 NODE_COUNTS = (1, 2, 4, 8, 16, 32, 62)
@@ -175,17 +177,22 @@ def multicast_ping_pong(idle: int, filtered: bool, count: int) -> dict[str, floa
 def subaction_floor(count: int) -> dict[str, float]:
     """A quadlet read's three frames on the bus, with no work done for them.
 
-    Request (24-byte frame header + 20-byte packet), ack with the response
-    concatenated (24 + 8 + 20), and the requester's ack of that response (24 + 8),
-    between two filtered members of a group: the least any quadlet read on this
-    bus can cost with Python at both ends. Whatever a real read takes beyond it is
-    the codec, the engine and the loops.
+    Request, ack with the response concatenated, and the requester's ack of that
+    response, byte for byte as a read sends them, between two filtered members of
+    a group: the least any quadlet read on this bus can cost with Python at both
+    ends. Whatever a real read takes beyond it is the codec, the engine and the
+    loops.
     """
     config = BusConfig(f"floor{os.getpid()}")
     tag = config.tag
-    request = FrameHeader(FrameKind.async_packet, tag, 101, 0, 1, 2).pack() + bytes(20)
-    answer = FrameHeader(FrameKind.ack, tag, 102, 0, 2, 1).pack() + bytes(8 + 20)
-    ack = FrameHeader(FrameKind.ack, tag, 101, 0, 1, 2).pack() + bytes(8)
+    # The very bytes a read exchanges, from the codec: only the work around them is left out.
+    read = QuadletReadRequest(destination_id=0xFFC2, tlabel=1, source_id=0xFFC1)
+    response = QuadletReadResponse(destination_id=0xFFC1, tlabel=1, source_id=0xFFC2)
+    ack_pending = AckPayload(ack_byte(AckCode.ack_pending), 1, 1, encode_packet(response))
+    ack_complete = AckPayload(ack_byte(AckCode.ack_complete), 1, 1)
+    request = FrameHeader(FrameKind.async_packet, tag, 101, 0, 1, 2).pack() + encode_packet(read)
+    answer = FrameHeader(FrameKind.ack, tag, 102, 0, 2, 1).pack() + ack_pending.pack()
+    ack = FrameHeader(FrameKind.ack, tag, 101, 0, 1, 2).pack() + ack_complete.pack()
 
     def responder() -> None:
         medium = Medium(config)

@@ -43,7 +43,7 @@ def register(subparsers: Any) -> None:
         "--length",
         type=integer,
         default=4,
-        help="bytes (4: quadlet read; a block read carries up to 65448, one datagram)",
+        help="bytes (4: quadlet read; longer: a block read, at most what one datagram carries)",
     )
     read.set_defaults(handler=run_read)
     write = _parser(subparsers, "write", "write quadlets to a node")

@@ -35,6 +35,7 @@ from fw1394.transport.procs import process_alive
 from fw1394.transport.wire import (
     ACK_PAYLOAD,
     HEADER_SIZE,
+    MAX_UDP_PAYLOAD,
     FrameError,
     FrameHeader,
     FrameKind,
@@ -44,17 +45,15 @@ from fw1394.transport.wire import (
 #: The sender's physical ID in tunnel frames: the highest node, where a host sits.
 HOST_PHY = 62
 MAX_DATAGRAM = 65_535
-#: The largest UDP payload over IPv4.
-MAX_PAYLOAD = 65_507
 ETH1394_VISIBILITY = Visibility(
     acks=False,
     tenure=False,
     write_responses=False,
     response_crcs=False,
-    max_response=MAX_PAYLOAD - EXTRA_SIZE,
+    max_response=MAX_UDP_PAYLOAD - EXTRA_SIZE,
 )
 #: An ack frame carries the concatenated response after its header and ack payload.
-TUNNEL_VISIBILITY = Visibility(max_response=MAX_PAYLOAD - HEADER_SIZE - ACK_PAYLOAD.size)
+TUNNEL_VISIBILITY = Visibility(max_response=MAX_UDP_PAYLOAD - HEADER_SIZE - ACK_PAYLOAD.size)
 #: The control word of every request (built by the framing's own codec, once):
 #: no-forward set, so the board answers itself and forwards nothing to FireWire.
 _CONTROL_WORD = build_request(Eth1394Request(ControlWord(no_forward=True), b""))

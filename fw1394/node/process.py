@@ -81,8 +81,6 @@ class Node:
         self.on_reset: Callable[[BusReset], None] | None = None
         #: Called with a line of text when the node must drop something it made.
         self.on_warning: Callable[[str], None] | None = None
-        #: Responses too large for one datagram (acked, then dropped).
-        self.oversized_responses = 0
 
     def stop(self) -> None:
         self._running = False
@@ -149,7 +147,6 @@ class Node:
         # The board answered (a real FPGA sends any length it is asked for) but no
         # datagram carries the answer: it is lost as on an overrun link, and the loss
         # is reported rather than silent. The requester's transaction times out.
-        self.oversized_responses += 1
         if self.on_warning is not None:
             self.on_warning(f"response to node {requester} dropped: {error}")
 

@@ -29,7 +29,7 @@ from fw1394.transport.station import Station
 from fw1394.transport.wire import (
     ACK_PAYLOAD,
     HEADER_SIZE,
-    MAX_DATAGRAM,
+    MAX_UDP_PAYLOAD,
     FrameHeader,
     FrameKind,
     MemberInfo,
@@ -51,8 +51,8 @@ _ACK_SIZE = ACK_PAYLOAD.size
 _BLOCK_OVERHEAD = len(encode_packet(BlockReadResponse(destination_id=0, tlabel=0, source_id=0)))
 #: The longest block whose read response still fits one datagram behind an ack (a
 #: concatenated response), and the longest block write request that fits one.
-MAX_BLOCK_READ = (MAX_DATAGRAM - HEADER_SIZE - _ACK_SIZE - _BLOCK_OVERHEAD) & ~3
-MAX_BLOCK_WRITE = (MAX_DATAGRAM - HEADER_SIZE - _BLOCK_OVERHEAD) & ~3
+MAX_BLOCK_READ = (MAX_UDP_PAYLOAD - HEADER_SIZE - _ACK_SIZE - _BLOCK_OVERHEAD) & ~3
+MAX_BLOCK_WRITE = (MAX_UDP_PAYLOAD - HEADER_SIZE - _BLOCK_OVERHEAD) & ~3
 
 
 class BusError(RuntimeError):

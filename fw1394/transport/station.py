@@ -28,7 +28,7 @@ from fw1394.transport.wire import (
     HEADER,
     HEADER_SIZE,
     MAGIC,
-    MAX_DATAGRAM,
+    MAX_UDP_PAYLOAD,
     NO_BOARD,
     NO_PHY,
     VERSION,
@@ -50,7 +50,7 @@ _FIELDS = struct.Struct(">3xBIIIBBBxI")
 _PREFIX = struct.pack(">HB", MAGIC, VERSION)
 _new_header = tuple.__new__
 assert _FIELDS.size == HEADER_SIZE
-_MAX_PAYLOAD = MAX_DATAGRAM - HEADER_SIZE
+_MAX_PAYLOAD = MAX_UDP_PAYLOAD - HEADER_SIZE
 
 
 class Station:

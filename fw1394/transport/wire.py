@@ -44,7 +44,7 @@ DESTINATION_OFFSET = 17
 MAX_MEMBERS = 63
 #: The largest UDP payload IPv4 can carry (65,535 minus the IP and UDP headers):
 #: one frame is one datagram, so this bounds every frame.
-MAX_DATAGRAM = 65_507
+MAX_UDP_PAYLOAD = 65_507
 
 
 class FrameKind(IntEnum):
@@ -84,7 +84,8 @@ class FrameTooLarge(ValueError):
 
     def __init__(self, size: int) -> None:
         self.size = size
-        super().__init__(f"a frame of {size} bytes exceeds the {MAX_DATAGRAM}-byte datagram limit")
+        limit = MAX_UDP_PAYLOAD
+        super().__init__(f"a frame of {size} bytes exceeds the {limit}-byte datagram limit")
 
 
 class FrameHeader(NamedTuple):
