@@ -8,17 +8,17 @@ from collections.abc import Sequence
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
+from fw1394.boards.qla1.busnode import add_eth1394_options, eth1394_node_arguments
 from fw1394.cli.common import CliError, print_json_lines, print_table
 from fw1394.cli.fuzz import add_defect_option, board_defects, checked_defects, defect_arguments
 from fw1394.engine import IEEE1394_NODE, JHU_FIRMWARE, THESIS_FPGA
-from fw1394.jhu.busnode import add_eth1394_options, eth1394_node_arguments
 from fw1394.transport.config import DEFAULT_BUS, BusConfig, BusNameError
 from fw1394.transport.faults import FaultConfig
 from fw1394.transport.membership import Timing
 from fw1394.transport.wire import MAX_MEMBERS, MemberInfo
 
 if TYPE_CHECKING:
-    from fw1394.transport.port import BusPort
+    from fw1394.transport.bus_port import BusPort
 
 DEFAULT_TIMING = Timing()
 #: Responder policies by name. "quick" is an ordinary IEEE 1394 node that answers
@@ -111,7 +111,7 @@ def faults(args: argparse.Namespace) -> FaultConfig:
 
 def host_port(args: argparse.Namespace) -> BusPort:
     """A host port on the bus the options name, waiting ``--timeout`` per transaction."""
-    from fw1394.transport.port import BusPort
+    from fw1394.transport.bus_port import BusPort
 
     config = bus_config(args)
     try:
@@ -182,7 +182,7 @@ def register(subparsers: Any) -> None:
         help="board kind, or kinds separated by commas given to the nodes in turn "
         "(default: memory)",
     )
-    add_eth1394_options(up)  # JHU Eth1394 (fw1394.jhu.busnode)
+    add_eth1394_options(up)  # JHU Eth1394 (fw1394.boards.qla1.busnode)
     add_defect_option(up)  # planted bugs for the fuzzer, on every node
     up.add_argument("--timeout", type=float, default=60.0, help="seconds to wait for the nodes")
     up.add_argument("--json", action="store_true", help="JSON lines instead of a table")
@@ -216,7 +216,7 @@ def add_node_run_options(run: argparse.ArgumentParser) -> None:
     add_bus_options(run)
     add_member_options(run)
     run.add_argument("--board", default="memory", help="board kind (default: memory)")
-    add_eth1394_options(run)  # JHU Eth1394 (fw1394.jhu.busnode)
+    add_eth1394_options(run)  # JHU Eth1394 (fw1394.boards.qla1.busnode)
     run.add_argument("--board-id", type=int, default=0, help="the board's own ID (rotary switch)")
     run.add_argument("--memory-size", type=int, default=65536, help="bytes of a memory node")
     run.add_argument(
@@ -253,7 +253,7 @@ def bus_up(args: argparse.Namespace) -> int:
         _check_board(kind)
         checked_defects(kind, args.defect)  # before any process starts
     node_arguments = (*member_arguments(args),)
-    # -- JHU Eth1394 (fw1394.jhu.busnode): qla1 firmware and Ethernet cabling --
+    # -- JHU Eth1394 (fw1394.boards.qla1.busnode): qla1 firmware and Ethernet cabling --
     try:
         node_arguments += eth1394_node_arguments(args)
     except ValueError as error:
@@ -284,7 +284,7 @@ def bus_up(args: argparse.Namespace) -> int:
 def _check_board(kind: str) -> None:
     if kind == "memory":
         return
-    from fw1394.node.boards import BOARDS
+    from fw1394.boards import BOARDS
 
     if kind not in BOARDS:
         known = ", ".join(["memory", *sorted(BOARDS)])
@@ -349,9 +349,9 @@ def node_run(args: argparse.Namespace) -> int:
     if args.parent_pid is not None:
         die_with_parent(args.parent_pid)
     config = bus_config(args)
-    # -- JHU Eth1394 (fw1394.jhu.busnode): qla1 boards run with their Ethernet side --
+    # -- JHU Eth1394 (fw1394.boards.qla1.busnode): qla1 boards run with their Ethernet side --
     if args.board == "qla1":
-        from fw1394.jhu.busnode import run_from_arguments
+        from fw1394.boards.qla1.busnode import run_from_arguments
 
         try:
             eth1394_node_arguments(args)
@@ -396,12 +396,12 @@ def _make_space(args: argparse.Namespace) -> Any:
     if not 0 <= args.board_id <= 0xFE:
         raise CliError(f"--board-id {args.board_id} is outside 0..254")
     if args.board == "memory":
-        from fw1394.node.memory import MemorySpace
+        from fw1394.boards.memory.board import MemorySpace
 
         if args.memory_size <= 0 or args.memory_size % 4:
             raise CliError(f"--memory-size {args.memory_size} is not a positive multiple of 4")
         return MemorySpace(args.memory_size, board_id=args.board_id)
-    from fw1394.node.boards import make_board
+    from fw1394.boards import make_board
 
     _check_board(args.board)
     try:

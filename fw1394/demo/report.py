@@ -10,8 +10,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from fw1394.boards.snake2010.spec import ENCODER_MIDPOINT
 from fw1394.demo.run import DemoResult
-from fw1394.node.boards.snake2010_spec import ENCODER_MIDPOINT
 
 
 def percentile(values: list[float], share: float) -> float:

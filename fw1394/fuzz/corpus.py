@@ -2,7 +2,7 @@
 
 A text file holds one packet per line as hex (spaces, ``0x`` quadlets and
 ``#`` comments allowed), as ``fw1394 decode`` reads them. Anything else is
-read as a capture through :mod:`fw1394.capture.sources` (fw1394 pcap/pcapng,
+read as a capture through :mod:`fw1394.capture.formats.sources` (fw1394 pcap/pcapng,
 Eth1394 UDP captures, nosy dumps, kernel logs); its asynchronous packets
 become the corpus, CRCs added where the source stripped them.
 """
@@ -73,8 +73,8 @@ def _hex_lines(path: Path) -> list[bytes]:
 
 def _capture(path: Path) -> list[bytes]:
     try:
-        from fw1394.capture import sources
-        from fw1394.capture.record import RecordType
+        from fw1394.capture.formats import sources
+        from fw1394.capture.formats.record import RecordType
     except ImportError as error:  # the capture readers need numpy
         raise CorpusError(f"{path}: reading captures needs {error.name}") from None
     packets: list[bytes] = []

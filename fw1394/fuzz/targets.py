@@ -2,7 +2,7 @@
 
 Target specifications:
 
-* ``inproc:BOARD``: a board emulator in this process (``fw1394.node.boards``
+* ``inproc:BOARD``: a board emulator in this process (``fw1394.boards``
   kinds, or ``memory``);
 * ``bus:NAME/NODE``: node NODE (a physical ID) of the virtual bus NAME;
 * ``udp:HOST[:PORT]``: a node behind a UDP tunnel, speaking fw1394's frames or,
@@ -11,6 +11,9 @@ Target specifications:
 
 from __future__ import annotations
 
+from fw1394.boards import BOARDS
+from fw1394.boards.qla1.board import BOARD_DEFECTS as QLA1_DEFECTS
+from fw1394.boards.snake2010.board import BOARD_DEFECTS as SNAKE2010_DEFECTS
 from fw1394.fuzz.clock import SimulatedClock, WallClock
 from fw1394.fuzz.contract import CONTRACTS
 from fw1394.fuzz.offsets import OffsetModel, offset_model
@@ -18,9 +21,6 @@ from fw1394.fuzz.reference import Reference
 from fw1394.fuzz.settings import DEFAULT_POLICIES, Settings, SettingsError
 from fw1394.fuzz.target import Target
 from fw1394.fuzz.trial import Trial
-from fw1394.node.boards import BOARDS
-from fw1394.node.boards.qla1 import BOARD_DEFECTS as QLA1_DEFECTS
-from fw1394.node.boards.snake2010 import BOARD_DEFECTS as SNAKE2010_DEFECTS
 from fw1394.node.defects import PACKET_DEFECTS
 
 SCHEMES = ("inproc", "bus", "udp")

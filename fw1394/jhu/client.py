@@ -22,6 +22,7 @@ import socket
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from fw1394.boards.qla1.eth_server import LOOPBACK_INTERFACE
 from fw1394.jhu.addressing import (
     MULTICAST_FIRMWARE,
     Endpoint,
@@ -29,7 +30,6 @@ from fw1394.jhu.addressing import (
     offset_address,
     require_loopback,
 )
-from fw1394.jhu.server import LOOPBACK_INTERFACE
 from fw1394.packets import (
     AsyncPacket,
     BlockReadRequest,

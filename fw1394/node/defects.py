@@ -14,7 +14,7 @@ from typing import Final
 
 from fw1394.engine import Reply, Responder, ResponderPolicy
 from fw1394.engine.policy import IEEE1394_NODE
-from fw1394.node.space import AddressSpace, SpaceError
+from fw1394.engine.space import AddressSpace, SpaceError
 from fw1394.packets import (
     AsyncPacket,
     BlockReadRequest,

@@ -16,8 +16,8 @@ from dataclasses import dataclass, field
 from types import FrameType
 
 from fw1394.engine import THESIS_FPGA, Responder, ResponderPolicy
+from fw1394.engine.space import AddressSpace
 from fw1394.node.defects import DefectiveResponder
-from fw1394.node.space import AddressSpace
 from fw1394.packets.fast import encode_packet
 from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig
