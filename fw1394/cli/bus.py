@@ -5,13 +5,13 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
-from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 from fw1394.boards.qla1.busnode import add_eth1394_options, eth1394_node_arguments
+from fw1394.boards.registry import board_kind
 from fw1394.cli.common import CliError, print_json_lines, print_table
 from fw1394.cli.fuzz import add_defect_option, board_defects, checked_defects, defect_arguments
-from fw1394.engine import IEEE1394_NODE, JHU_FIRMWARE, THESIS_FPGA
+from fw1394.engine.policy import POLICIES
 from fw1394.transport.config import DEFAULT_BUS, BusConfig, BusNameError
 from fw1394.transport.faults import FaultConfig
 from fw1394.transport.membership import Timing
@@ -21,21 +21,10 @@ if TYPE_CHECKING:
     from fw1394.transport.bus_port import BusPort
 
 DEFAULT_TIMING = Timing()
-#: Responder policies by name. "quick" is an ordinary IEEE 1394 node that answers
-#: reads and locks in the ack's bus tenure and writes with ack_complete: the fewest
-#: subactions, as the thesis boards do, but with lock support.
-POLICIES = {
-    "thesis": THESIS_FPGA,
-    "ieee1394": IEEE1394_NODE,
-    "jhu": JHU_FIRMWARE,
-    "quick": replace(IEEE1394_NODE, read_mode="concatenated", write_mode="unified"),
-}
 
 
 def default_policy(board: str) -> str:
-    if board == "memory":
-        return "quick"
-    return "jhu" if board.startswith("qla") else "thesis"
+    return board_kind(board).policy
 
 
 BUS_EXAMPLES = """\
@@ -287,7 +276,7 @@ def _check_board(kind: str) -> None:
     from fw1394.boards import BOARDS
 
     if kind not in BOARDS:
-        known = ", ".join(["memory", *sorted(BOARDS)])
+        known = ", ".join(sorted(BOARDS))
         raise CliError(f"unknown board kind {kind!r}; known kinds: {known}")
 
 
