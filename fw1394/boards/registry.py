@@ -8,7 +8,7 @@ board's name.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -18,6 +18,7 @@ from fw1394.boards.qla1.board import Qla1Board
 from fw1394.boards.snake2010.board import BOARD_DEFECTS as SNAKE2010_DEFECTS
 from fw1394.boards.snake2010.board import Snake2010Board
 from fw1394.boards.snake2010.spec import Z_THETA_CHANNELS
+from fw1394.engine.defects import PACKET_DEFECTS
 from fw1394.engine.space import AddressSpace
 
 
@@ -88,3 +89,27 @@ def board_kind(kind: str) -> BoardKind:
 def make_board(kind: str, **kw: Any) -> AddressSpace:
     """Build a board of ``kind`` (a key of :data:`BOARDS`) with keywords ``kw``."""
     return board_kind(kind).make(**kw)
+
+
+def known_defects(kind: str | None) -> dict[str, str]:
+    """Defect names a node of board ``kind`` accepts, with what each does."""
+    known = dict(PACKET_DEFECTS)
+    entry = BOARDS.get(kind or "")
+    for name in sorted(entry.defects if entry else ()):
+        known[name] = f"board defect of {kind} (docs/boards/)"
+    return known
+
+
+def check_defects(kind: str, names: Iterable[str]) -> frozenset[str]:
+    """``names`` if a node of ``kind`` knows each; :class:`ValueError` names the first unknown."""
+    chosen = frozenset(names)
+    unknown = sorted(chosen - known_defects(kind).keys())
+    if unknown:
+        raise ValueError(f"unknown defect {unknown[0]!r} for {kind}; see `fw1394 fuzz defects`")
+    return chosen
+
+
+def board_defects(kind: str, names: frozenset[str]) -> frozenset[str]:
+    """The part of ``names`` the board itself plants (the rest is the responder's)."""
+    entry = BOARDS.get(kind)
+    return names & entry.defects if entry else frozenset()

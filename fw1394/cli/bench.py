@@ -131,7 +131,7 @@ def run_bench_command(args: argparse.Namespace) -> int:
     from fw1394.experiments.results import digest
     from fw1394.experiments.run import run_bench
     from fw1394.experiments.timing import MeasurementError
-    from fw1394.jhu.addressing import AddressRefusedError
+    from fw1394.transport.eth1394_addresses import AddressRefusedError
 
     settings = _settings(args)
     try:

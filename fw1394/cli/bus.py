@@ -8,9 +8,9 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 from fw1394.boards.qla1.busnode import add_eth1394_options, eth1394_node_arguments
-from fw1394.boards.registry import board_kind
+from fw1394.boards.registry import board_defects, board_kind
 from fw1394.cli.common import CliError, print_json_lines, print_table
-from fw1394.cli.fuzz import add_defect_option, board_defects, checked_defects, defect_arguments
+from fw1394.cli.fuzz import add_defect_option, checked_defects, defect_arguments
 from fw1394.engine.policy import POLICIES
 from fw1394.transport.config import DEFAULT_BUS, BusConfig, BusNameError
 from fw1394.transport.faults import FaultConfig
@@ -217,7 +217,7 @@ def add_node_run_options(run: argparse.ArgumentParser) -> None:
     run.add_argument("--rank", type=int, default=None, help="order key (default: start time)")
     run.add_argument("--parent-pid", type=int, default=None, help=argparse.SUPPRESS)
     run.add_argument("--quiet", action="store_true", help="no log lines on stderr")
-    add_defect_option(run)  # planted bugs for the fuzzer (fw1394.node.defects)
+    add_defect_option(run)  # planted bugs for the fuzzer (fw1394.engine.defects)
 
 
 def _bus_handler(action: str) -> Any:

@@ -12,8 +12,9 @@ import json
 from typing import Any
 
 from fw1394.cli.bus import add_bus_options, add_member_options, bus_config, host_port
-from fw1394.cli.common import CliError, fail, integer, quadlets_hex
+from fw1394.cli.common import CliError, fail, integer
 from fw1394.packets import ExtendedTCode, RCode, name_of
+from fw1394.packets.hextext import quadlets_hex
 
 LOCK_OPERATIONS = {
     name: int(ExtendedTCode[name])

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from fw1394.packets import PacketError
 from fw1394.packets.asynchronous import decode_async, encode_async
+from fw1394.packets.hextext import HexTextError, hex_bytes
 
 #: Packets kept from one file at most (a long capture repeats itself).
 LIMIT = 10_000
@@ -53,8 +54,6 @@ def _is_hex_text(head: bytes) -> bool:
 
 
 def _hex_lines(path: Path) -> list[bytes]:
-    from fw1394.cli.common import CliError, hex_bytes
-
     packets = []
     for number, line in enumerate(path.read_text(errors="replace").splitlines(), 1):
         body = line.split("#", 1)[0].strip()
@@ -62,7 +61,7 @@ def _hex_lines(path: Path) -> list[bytes]:
             continue
         try:
             packets.append(hex_bytes(body))
-        except CliError as error:
+        except HexTextError as error:
             raise CorpusError(f"{path}:{number}: {error}") from None
         if len(packets) >= LIMIT:
             break

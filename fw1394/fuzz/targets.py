@@ -11,9 +11,7 @@ Target specifications:
 
 from __future__ import annotations
 
-from fw1394.boards import BOARDS
-from fw1394.boards.qla1.board import BOARD_DEFECTS as QLA1_DEFECTS
-from fw1394.boards.snake2010.board import BOARD_DEFECTS as SNAKE2010_DEFECTS
+from fw1394.boards.registry import BOARDS, known_defects
 from fw1394.fuzz.clock import SimulatedClock, WallClock
 from fw1394.fuzz.contract import CONTRACTS
 from fw1394.fuzz.offsets import OffsetModel, offset_model
@@ -21,25 +19,9 @@ from fw1394.fuzz.reference import Reference
 from fw1394.fuzz.settings import DEFAULT_POLICIES, Settings, SettingsError
 from fw1394.fuzz.target import Target
 from fw1394.fuzz.trial import Trial
-from fw1394.node.defects import PACKET_DEFECTS
 
 SCHEMES = ("inproc", "bus", "udp")
-KINDS = tuple(sorted({*BOARDS, "memory"}))
-#: Board-level defects by board kind (see docs/boards/).
-BOARD_DEFECTS: dict[str, frozenset[str]] = {
-    "qla1": QLA1_DEFECTS,
-    "snake2010": SNAKE2010_DEFECTS,
-    "snake2010-ztheta": SNAKE2010_DEFECTS,
-    "memory": frozenset(),
-}
-
-
-def known_defects(kind: str | None) -> dict[str, str]:
-    """Defect names a target of board ``kind`` accepts, with what each does."""
-    known = dict(PACKET_DEFECTS)
-    for name in sorted(BOARD_DEFECTS.get(kind or "", frozenset())):
-        known[name] = f"board defect of {kind} (docs/boards/)"
-    return known
+KINDS = tuple(sorted(BOARDS))
 
 
 def target_kind(settings: Settings) -> str | None:

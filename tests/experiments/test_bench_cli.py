@@ -19,8 +19,8 @@ from fw1394.cli.common import CliError
 from fw1394.cli.main import main
 from fw1394.experiments.connect import TargetSpec, parse_target
 from fw1394.experiments.report_text import render
-from fw1394.jhu.addressing import Endpoint
 from fw1394.transport.config import BusConfig
+from fw1394.transport.eth1394_addresses import Endpoint
 from fw1394.transport.launch import LaunchedBus
 
 SMALL = ["--iterations", "300", "--sizes", "1,8,64,512", "--passes", "2", "--quiet", "--json"]

@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import pytest
 
+from fw1394.boards.registry import BOARDS
+from fw1394.engine.defects import PACKET_DEFECTS
 from fw1394.fuzz.campaign import run
 from fw1394.fuzz.settings import Settings
-from fw1394.fuzz.targets import BOARD_DEFECTS
-from fw1394.node.defects import PACKET_DEFECTS
 
 #: (board, defect, node policy and contract, cases allowed, oracles that may report it).
 #: The bounds are the table of docs/fuzzing.md: the worst of 30 seeds, rounded up.
@@ -56,7 +56,7 @@ def campaign(kind: str, defects: tuple[str, ...], contract: str, cases: int) -> 
 def test_every_planted_defect_has_a_bound() -> None:
     listed = {(kind, defect) for kind, defect, *_ in PLANTED}
     expected = {("memory", d) for d in PACKET_DEFECTS}
-    expected |= {(k, d) for k in ("qla1", "snake2010") for d in BOARD_DEFECTS[k]}
+    expected |= {(k, d) for k in ("qla1", "snake2010") for d in BOARDS[k].defects}
     assert listed == expected
 
 

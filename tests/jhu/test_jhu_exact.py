@@ -8,15 +8,6 @@ import pytest
 from fw1394.boards.qla1.eth_server import Eth1394Server
 from fw1394.boards.qla1.ethernet import Reply, datagram
 from fw1394.boards.qla1.rack import Rack
-from fw1394.jhu.addressing import (
-    AddressRefusedError,
-    Endpoint,
-    board_address,
-    classful_broadcast,
-    multicast_route_check,
-    parse_endpoint,
-    require_loopback,
-)
 from fw1394.jhu.client import EthUdpClient
 from fw1394.packets import AsyncPacket, decode
 from fw1394.packets.eth1394 import (
@@ -25,6 +16,15 @@ from fw1394.packets.eth1394 import (
     host_verdict,
     parse_request,
     parse_response,
+)
+from fw1394.transport.eth1394_addresses import (
+    AddressRefusedError,
+    Endpoint,
+    board_address,
+    classful_broadcast,
+    multicast_route_check,
+    parse_endpoint,
+    require_loopback,
 )
 
 HOST = ("127.0.0.1", 40000)

@@ -21,10 +21,10 @@ import pytest
 from fw1394.boards.qla1.eth_server import Eth1394Server, MulticastRefusedError
 from fw1394.boards.qla1.rack import Rack
 from fw1394.boards.qla1.regs import DAC_VALID
-from fw1394.jhu.addressing import Endpoint
 from fw1394.jhu.client import EthUdpClient
 from fw1394.jhu.rt_loop import Command, RealTimeLoop
 from fw1394.jhu.scan import Protocol, start
+from fw1394.transport.eth1394_addresses import Endpoint
 
 PORT = 30_000 + os.getpid() % 20_000
 POWER_ON = 0x000C0000  # STATUS command: power enable (mask bit 19, value bit 18)
@@ -90,7 +90,7 @@ def test_dac_commands_come_back_in_the_block() -> None:
 
 
 def test_firmware_9_is_refused_outside_a_loopback_multicast_route() -> None:
-    from fw1394.jhu.addressing import multicast_route_check
+    from fw1394.transport.eth1394_addresses import multicast_route_check
 
     if multicast_route_check() is None:
         pytest.skip("this machine's multicast route is on lo (or missing): nothing to refuse")

@@ -45,8 +45,13 @@ from fw1394.boards.qla1.firewire import (
     is_hub_query,
 )
 from fw1394.engine import JHU_FIRMWARE
+from fw1394.engine.defects import DefectiveResponder
 from fw1394.engine.responder import decode_received
-from fw1394.jhu.addressing import (
+from fw1394.packets import BlockWriteRequest, Request, Response
+from fw1394.packets.eth1394 import MULTICAST_GROUP
+from fw1394.packets.fast import encode_packet
+from fw1394.transport.config import BusConfig
+from fw1394.transport.eth1394_addresses import (
     MULTICAST_FIRMWARE,
     Endpoint,
     board_address,
@@ -54,11 +59,6 @@ from fw1394.jhu.addressing import (
     parse_endpoint,
     require_loopback,
 )
-from fw1394.node.defects import DefectiveResponder
-from fw1394.packets import BlockWriteRequest, Request, Response
-from fw1394.packets.eth1394 import MULTICAST_GROUP
-from fw1394.packets.fast import encode_packet
-from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig
 from fw1394.transport.membership import BusReset, Refused, Timing
 from fw1394.transport.station import Station
@@ -104,7 +104,7 @@ class BusNodeOptions:
     #: Where the host reaches this board; None: no Ethernet cable.
     eth1394: Endpoint | None = None
     ethernet_hub: bool = True
-    #: Planted packet-level bugs for the fuzzer (fw1394.node.defects).
+    #: Planted packet-level bugs for the fuzzer (fw1394.engine.defects).
     defects: frozenset[str] = frozenset()
 
 
@@ -318,9 +318,9 @@ def run_from_arguments(
     faults: FaultConfig | None,
 ) -> None:
     """Run the qla1 board of ``fw1394 node run`` until SIGINT or SIGTERM."""
-    from fw1394.cli.fuzz import board_defects, checked_defects
+    from fw1394.boards.registry import board_defects, check_defects
 
-    defects = checked_defects("qla1", getattr(args, "defect", None) or [])
+    defects = check_defects("qla1", getattr(args, "defect", None) or [])
     board = Qla1Board(
         board_id=args.board_id, firmware=args.firmware, defects=board_defects("qla1", defects)
     )

@@ -27,7 +27,8 @@ from ipaddress import IPv4Address
 
 from fw1394.boards.qla1.ethernet import Reply, datagram
 from fw1394.boards.qla1.rack import Rack
-from fw1394.jhu.addressing import (
+from fw1394.packets.eth1394 import MULTICAST_GROUP
+from fw1394.transport.eth1394_addresses import (
     LOOPBACK_NETWORK,
     MULTICAST_FIRMWARE,
     AddressRefusedError,
@@ -37,7 +38,6 @@ from fw1394.jhu.addressing import (
     multicast_route_check,
     require_loopback,
 )
-from fw1394.packets.eth1394 import MULTICAST_GROUP
 
 MAX_DATAGRAM = 65_535
 LOOPBACK_INTERFACE = "127.0.0.1"

@@ -34,9 +34,9 @@ from fw1394.boards.qla1.firewire import (
     query_reaches_every_node,
 )
 from fw1394.engine import JHU_FIRMWARE, Responder
-from fw1394.jhu.addressing import MULTICAST_FIRMWARE
 from fw1394.packets import BlockWriteRequest, Request, Response
 from fw1394.packets.fast import encode_packet
+from fw1394.transport.eth1394_addresses import MULTICAST_FIRMWARE
 
 
 @dataclass
