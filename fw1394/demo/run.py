@@ -110,17 +110,7 @@ def _tap(config: BusConfig, path: Path | None) -> Iterator[None]:
     if path is None:
         yield
         return
-    command = [
-        sys.executable,
-        "-m",
-        "fw1394.cli.main",
-        "capture",
-        "--bus",
-        config.name,
-        "-w",
-        str(path),
-        "-q",
-    ]
+    command = [sys.executable, "-m", "fw1394.capture.formats.bus_recorder", config.name, str(path)]
     tap = subprocess.Popen(command, stdin=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         # The capture writes its file header once its tap listens; traffic waits for it.
