@@ -13,7 +13,6 @@ layout that has them (the tcode, both node IDs, the tlabel, the rcode, the
 
 from __future__ import annotations
 
-import struct
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -38,7 +37,7 @@ class FieldReader:
     of_quadlets: Callable[[Sequence[int]], int] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        namespace: dict[str, Any] = {"from_bytes": int.from_bytes, "unpack_from": struct.unpack_from}
+        namespace: dict[str, Any] = {"from_bytes": int.from_bytes}
         exec(self._bytes_source(), namespace)
         exec(self._quadlets_source(), namespace)
         object.__setattr__(self, "of_bytes", namespace["of_bytes"])

@@ -11,12 +11,18 @@ from fw1394.packets.errors import PacketError
 
 ACK_LAYOUT = BitStruct("code" / Nibble, "parity" / Nibble)
 #: Ack codes have four bits: 16 of them.
-ACK_CODES = 1 << next(f.subcon.length for f in ACK_LAYOUT.subcon.subcons if f.name == "code")
+ACK_CODES: int = 1 << int(
+    next(f.subcon.length for f in ACK_LAYOUT.subcon.subcons if f.name == "code")
+)
+
+
+#: Keeps the bits of an ack code (where a byte or an int holds one).
+ACK_CODE_MASK = ACK_CODES - 1
 
 
 def _parity(code: int) -> int:
     # The check nibble is the code's one's complement.
-    return code ^ (ACK_CODES - 1)
+    return code ^ ACK_CODE_MASK
 
 
 #: The wire byte of every ack code (code and parity as the layout places them).
@@ -31,7 +37,7 @@ _PARITY_OK: tuple[bool, ...] = tuple(f.parity == _parity(f.code) for f in _FIELD
 
 def ack_byte(code: int) -> int:
     """The wire byte of ack ``code`` (its low four bits): code, then the parity nibble."""
-    return ACK_BYTES[code % ACK_CODES]
+    return ACK_BYTES[code & ACK_CODE_MASK]
 
 
 def ack_code(byte: int) -> int:

@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import struct
 
-from construct import Const, Construct, Default, FormatField, Int8ub, Int16ub, Int32ub, Struct
+from construct import Const, Default, Int8ub, Int16ub, Int32ub, Struct
+
+from fw1394.packets.bitfields import flatten, struct_format
 
 #: "FW": the first two bytes of every frame.
 FRAME_MAGIC = 0x4657
@@ -41,41 +43,13 @@ ACK_FRAME = Struct(
 )
 
 
-def _format_field(subcon: Construct) -> FormatField:
-    # Names, constants and defaults wrap a fixed-size integer; unwrap to it.
-    while not isinstance(subcon, FormatField):
-        inner = getattr(subcon, "subcon", None)
-        if inner is None:
-            raise TypeError(f"{subcon!r} has no struct equivalent")
-        subcon = inner
-    return subcon
-
-
-def struct_format(layout: Struct, skip: frozenset[str] = frozenset()) -> str:
-    """The big-endian :mod:`struct` format of a flat ``layout``; ``skip`` fields become pad bytes."""
-    parts = []
-    for subcon in layout.subcons:
-        field = _format_field(subcon)
-        if field.fmtstr[0] != ">":
-            raise TypeError(f"{subcon.name}: only big-endian fields have a wire format")
-        code = field.fmtstr[1:]
-        parts.append(f"{field.length}x" if subcon.name in skip else code)
-    return ">" + "".join(parts)
-
-
 def field_spans(layout: Struct) -> dict[str, tuple[int, int]]:
-    """Byte offset and size of every named field of a flat, fixed-size ``layout``."""
-    spans, position = {}, 0
-    for subcon in layout.subcons:
-        size = subcon.sizeof()
-        if subcon.name is not None:
-            spans[subcon.name] = (position, size)
-        position += size
-    return spans
+    """Byte offset and size of every field of a flat, byte-aligned ``layout``."""
+    return {f.name: (f.byte_offset, f.byte_size) for f in flatten(layout)}
 
 
 def field_offsets(layout: Struct) -> dict[str, int]:
-    """Byte offset of every named field of a flat, fixed-size ``layout``."""
+    """Byte offset of every field of a flat, byte-aligned ``layout``."""
     return {name: offset for name, (offset, _) in field_spans(layout).items()}
 
 

@@ -1,4 +1,4 @@
-"""The bus frame header and ack payload: struct formats and filter offsets derived from construct."""
+"""Bus frame header and ack payload: struct formats and filter offsets derived from construct."""
 
 from __future__ import annotations
 

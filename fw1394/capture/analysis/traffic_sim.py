@@ -28,6 +28,7 @@ from fw1394.packets import (
     Speed,
     encode,
 )
+from fw1394.packets.ack import ack_byte
 
 LOCAL_BUS = 0xFFC0
 RT_BLOCK_BYTES = 128
@@ -88,7 +89,7 @@ class _Bus:
         )
         self.records.append(record)
         if self.s.separate_acks and ack is not None:
-            raw = bytes([(ack << 4) | (ack ^ 0xF)])
+            raw = bytes([ack_byte(ack)])
             self.records.append(BusRecord(when + 300, RecordType.ack, raw, self.generation, None))
 
     def read(

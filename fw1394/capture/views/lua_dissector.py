@@ -14,11 +14,11 @@ from collections.abc import Iterable
 from enum import IntEnum
 
 from fw1394 import __version__
-from fw1394.capture.analysis.bitfields import FlatField, flatten
 from fw1394.capture.formats import pseudo_header
 from fw1394.capture.formats.record import Direction, RecordType
 from fw1394.capture.views.lua_runtime import RUNTIME
 from fw1394.packets import LAYOUTS, PHY_CLASSES, PacketError
+from fw1394.packets.bitfields import FlatField, flatten
 from fw1394.packets.enums import AckCode, ExtendedTCode, RCode, Retry, Speed, TCode
 from fw1394.packets.eth1394 import (
     CONTROL_WORD,
