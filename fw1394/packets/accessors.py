@@ -20,7 +20,7 @@ from typing import Any
 from fw1394.packets.enums import TCode
 from fw1394.packets.fields import BitField, Quadlets
 from fw1394.packets.layouts import LAYOUTS
-from fw1394.packets.phy import SELF_ID_ZERO
+from fw1394.packets.phy import PLAIN_EXTENDED, SELF_ID_ZERO
 
 Buffer = bytes | bytearray | memoryview
 
@@ -61,7 +61,12 @@ class FieldReader:
     @property
     def end(self) -> int:
         """Bytes a packet needs for this field to be readable."""
-        return max(4 * (p.quadlet + 1) - p.lsb // 8 for p in self.parts)
+        return max(first + size for first, size, _ in map(_byte_span, self.parts))
+
+    @property
+    def byte_span(self) -> tuple[int, int, int]:
+        """(first byte, byte count, right shift) of the bytes a one-quadlet field touches."""
+        return _byte_span(self._single())
 
     def _single(self) -> BitField:
         if len(self.parts) != 1:
@@ -75,19 +80,23 @@ class FieldReader:
         # Read only the bytes the field touches: one indexing for a field inside a byte.
         terms = []
         for part in self.parts:
-            first = 4 * part.quadlet + (31 - part.msb) // 8
-            last = 4 * part.quadlet + (31 - part.lsb) // 8
-            shift = part.lsb - 8 * (3 - (31 - part.lsb) // 8)
-            if first == last:
+            first, size, shift = _byte_span(part)
+            if size == 1:
                 term = f"data[offset + {first}]"
             else:
-                term = f"from_bytes(data[offset + {first}:offset + {last + 1}], 'big')"
-            terms.append(_shaped(term, shift, part, 8 * (last - first + 1)))
+                term = f"from_bytes(data[offset + {first}:offset + {first + size}], 'big')"
+            terms.append(_shaped(term, shift, part, 8 * size))
         return f"def of_bytes(data, offset=0):\n    return {' | '.join(terms)}\n"
 
     def _quadlets_source(self) -> str:
         terms = [_shaped(f"quadlets[{p.quadlet}]", p.lsb, p, 32) for p in self.parts]
         return f"def of_quadlets(quadlets):\n    return {' | '.join(terms)}\n"
+
+
+def _byte_span(part: BitField) -> tuple[int, int, int]:
+    first = 4 * part.quadlet + (31 - part.msb) // 8
+    last = 4 * part.quadlet + (31 - part.lsb) // 8
+    return first, last - first + 1, part.lsb - 8 * (3 - (31 - part.lsb) // 8)
 
 
 def _shaped(term: str, shift: int, part: BitField, bits: int) -> str:
@@ -141,12 +150,19 @@ OFFSET = ASYNC["offset"]
 SELF_ID = readers(Quadlets(SELF_ID_ZERO))
 PHY_IDENTIFIER = SELF_ID["identifier"]
 SELF_ID_PHY = SELF_ID["phy_id"]
+#: The bits that tell PHY packet kinds apart, most significant first: the identifier,
+#: bits 23-22 (R and T of identifier 0, the extended bit of self-IDs) and the 1394a type.
+PHY_KIND_BITS: tuple[FieldReader, ...] = tuple(
+    readers(Quadlets(PLAIN_EXTENDED))[name]
+    for name in ("identifier", "force_root", "gap_count_optimization", "type")
+)
 
 __all__ = [
     "ASYNC",
     "DESTINATION_ID",
     "OFFSET",
     "PHY_IDENTIFIER",
+    "PHY_KIND_BITS",
     "RCODE",
     "SELF_ID",
     "SELF_ID_PHY",

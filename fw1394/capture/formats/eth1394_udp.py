@@ -34,9 +34,8 @@ from fw1394.packets.eth1394 import (
     parse_response,
 )
 from fw1394.packets.nodeid import phy_of
+from fw1394.packets.tcodes import REQUEST_TCODES, RESPONSE_TCODES
 
-REQUEST_TCODES = frozenset({0x0, 0x1, 0x4, 0x5, 0x9})
-RESPONSE_TCODES = frozenset({0x2, 0x6, 0x7, 0xB})
 _ETHERTYPE_IPV4, _ETHERTYPE_IPV6, _ETHERTYPE_VLAN = 0x0800, 0x86DD, 0x8100
 _UDP = 17
 
