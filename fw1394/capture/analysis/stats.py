@@ -19,7 +19,7 @@ from fw1394.capture.analysis.transactions import Transactions
 from fw1394.capture.formats.record import RecordType
 from fw1394.packets import AckCode, RCode, TCode, name_of
 from fw1394.packets.accessors import TCODE
-from fw1394.packets.nodeid import BROADCAST_PHY as PHY_ID_MASK  # the phy ID bits of a node ID
+from fw1394.packets.nodeid import PHY_ID_MASK
 
 BINS_PER_OCTAVE = 64
 OCTAVES = 44  # 1 ns .. about 4.9 hours

@@ -29,8 +29,8 @@ from fw1394.packets import (
     encode,
 )
 from fw1394.packets.ack import ack_byte
+from fw1394.packets.nodeid import LOCAL_BASE
 
-LOCAL_BUS = 0xFFC0
 RT_BLOCK_BYTES = 128
 COMMAND_BYTES = 24
 
@@ -96,7 +96,7 @@ class _Bus:
         self, board: int, offset: int, length: int | None, value: bytes, busy: bool, fate: str
     ) -> None:
         tl = self.label()
-        node, host = LOCAL_BUS | board, LOCAL_BUS | self.host
+        node, host = LOCAL_BASE | board, LOCAL_BASE | self.host
         if length is None:
             request = self.packet(
                 ("qr", tl, node, offset),
@@ -145,7 +145,7 @@ class _Bus:
 
     def write(self, board: int, data: bytes) -> None:
         tl = self.label()
-        node, host = LOCAL_BUS | board, LOCAL_BUS | self.host
+        node, host = LOCAL_BASE | board, LOCAL_BASE | self.host
         request = self.packet(
             ("bw", tl, node, data),
             BlockWriteRequest(destination_id=node, source_id=host, tlabel=tl, offset=0, data=data),
@@ -181,7 +181,7 @@ class _Bus:
                 self.read(board, offset, None, quadlet.to_bytes(4, "big"), False, "ok")
 
     def unsolicited(self) -> None:
-        node, host = LOCAL_BUS, LOCAL_BUS | self.host
+        node, host = LOCAL_BASE, LOCAL_BASE | self.host
         stray = QuadletReadResponse(
             destination_id=host, source_id=node, tlabel=63, quadlet_data=0xDEAD
         )

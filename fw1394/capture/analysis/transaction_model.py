@@ -7,6 +7,7 @@ from enum import IntEnum, IntFlag
 import numpy as np
 
 from fw1394.packets import AckCode, ExtendedTCode, TCode
+from fw1394.packets.nodeid import BROADCAST_PHY
 from fw1394.packets.tcodes import RESPONSE_OF_REQUEST
 
 I64 = np.int64
@@ -38,7 +39,8 @@ HALVED_LOCKS = [
     ExtendedTCode.bounded_add,
     ExtendedTCode.wrap_add,
 ]
-BROADCAST_NODE = 0x3F
+#: The physical ID of broadcast, also the mask of a node ID's physical ID bits.
+BROADCAST_NODE = BROADCAST_PHY
 
 
 def code_table(codes: object) -> np.ndarray:
