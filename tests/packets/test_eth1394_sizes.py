@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -35,7 +37,7 @@ def _request(packet: bytes) -> bytes:
 
 @given(st.integers(0, 63), st.binary(max_size=64).map(lambda b: b + bytes(-len(b) % 4)))
 def test_sizes_equal_built_datagrams(tlabel: int, data: bytes) -> None:
-    route = {"destination_id": 0xFFC0, "source_id": 0xFFD0, "tlabel": tlabel}
+    route: dict[str, Any] = {"destination_id": 0xFFC0, "source_id": 0xFFD0, "tlabel": tlabel}
     assert len(_request(encode(QuadletReadRequest(**route, offset=0)))) == e.QREAD_REQUEST_SIZE
     qwrite = encode(QuadletWriteRequest(**route, offset=0, quadlet_data=1))
     assert len(_request(qwrite)) == e.QWRITE_REQUEST_SIZE

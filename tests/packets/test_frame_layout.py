@@ -136,3 +136,14 @@ def test_the_program_loads_exactly_the_derived_offsets() -> None:
     program = bpf._program(tag=7, member_id=5, phy_id=2, drop_acks=True)
     loads = {(code, k) for code, _, _, k in program if code in (0x20, 0x28, 0x30)}
     assert loads == {bpf.load(n) for n in ("magic", "tag", "sender", "kind", "destination")}
+
+
+@given(headers())
+def test_the_station_receive_path_reads_what_the_layout_says(fields: dict[str, int]) -> None:
+    # transport.station unpacks received headers with its own format; until it takes
+    # HEADER_VALUES and HEADER_PREFIX from wire, both must read the same fields.
+    from fw1394.transport import station
+
+    raw = FRAME_HEADER.build(fields)
+    assert station._PREFIX == wire.HEADER_PREFIX == raw[: len(wire.HEADER_PREFIX)]
+    assert station._FIELDS.unpack_from(raw) == wire.HEADER_VALUES.unpack_from(raw)

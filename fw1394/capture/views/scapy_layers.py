@@ -18,6 +18,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any, ClassVar
 
+from construct import Struct
 from scapy.config import conf
 from scapy.fields import BitField, StrLenField, XBitField
 from scapy.layers.inet import UDP
@@ -28,6 +29,7 @@ from fw1394.capture.formats.eth1394_udp import classify
 from fw1394.capture.formats.record import RecordType
 from fw1394.packets import LAYOUTS, PacketError
 from fw1394.packets.accessors import TCODE
+from fw1394.packets.ack import ACK_LAYOUT
 from fw1394.packets.bitfields import FlatField, flatten
 from fw1394.packets.eth1394 import CONTROL_WORD, EXTRA_BYTES, EXTRA_SIZE, UDP_PORT
 from fw1394.packets.fields import BitField as LayoutBit
@@ -136,9 +138,15 @@ _PHY_KINDS = list(PHY_CLASSES.values()) if isinstance(PHY_CLASSES, dict) else li
 PHY_LAYERS = {kind.NAME: _phy_class(kind) for kind in _PHY_KINDS}
 
 
+#: The ack byte's nibbles from its layout; the code is shown as ``ack``.
+_ACK_NAMES = {"ack.code": "ack", "ack.parity": "parity"}
+
+
 class FW1394Ack(Packet):
     name = "IEEE 1394 ack"
-    fields_desc = [BitField("ack", 0, 4), BitField("parity", 0, 4)]
+    fields_desc = _bit_fields(
+        (_ACK_NAMES[field.name], field.width) for field in flatten(Struct("ack" / ACK_LAYOUT))
+    )
 
 
 class FW1394Capture(Packet):
