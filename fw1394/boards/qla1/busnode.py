@@ -39,7 +39,6 @@ from fw1394.boards.qla1.eth_server import (
 )
 from fw1394.boards.qla1.ethernet import Action, EthernetPort, Forward, HubBroadcast, Reply, datagram
 from fw1394.boards.qla1.firewire import (
-    LOCAL_BUS_IDS,
     ClockedBoard,
     broadcast_sequence,
     is_hub_query,
@@ -50,6 +49,7 @@ from fw1394.engine.responder import decode_received
 from fw1394.packets import BlockWriteRequest, Request, Response
 from fw1394.packets.eth1394 import MULTICAST_GROUP
 from fw1394.packets.fast import encode_packet
+from fw1394.packets.nodeid import BROADCAST_ID, BROADCAST_PHY
 from fw1394.transport.config import BusConfig
 from fw1394.transport.eth1394_addresses import (
     MULTICAST_FIRMWARE,
@@ -60,16 +60,10 @@ from fw1394.transport.eth1394_addresses import (
     require_loopback,
 )
 from fw1394.transport.faults import FaultConfig
-from fw1394.transport.membership import BusReset, Refused, Timing
+from fw1394.transport.link import ACK, ASYNC_PACKET, ResponderLink
+from fw1394.transport.membership import BusReset, Timing
 from fw1394.transport.station import Station
-from fw1394.transport.wire import (
-    BROADCAST_PHY,
-    AckPayload,
-    FrameHeader,
-    FrameKind,
-    ack_byte,
-    parse_ack,
-)
+from fw1394.transport.wire import FrameHeader, FrameKind, parse_ack
 
 POLL = 0.005
 
@@ -93,6 +87,41 @@ class StationLink:
     def resetting(self) -> bool:
         # Between leaving one generation and taking part in the next.
         return self._station.phy_id is None
+
+
+class BoardLink(ResponderLink):
+    """The board's link: requests go to its responder, and what the Ethernet port
+    waits for (responses to forwarded requests, other boards' blocks) to the port.
+
+    The port's answers collect in :attr:`actions` for the node to carry out.
+    """
+
+    port: EthernetPort
+    actions: list[Action]
+
+    def take(self, header: FrameHeader, payload: bytes, now: float) -> None:
+        board_now = now - self.epoch
+        kind = header.kind
+        if kind == ACK:
+            concatenated = parse_ack(payload).concatenated
+            if concatenated:
+                self.actions += self.port.firewire_response(concatenated, board_now)
+            return
+        if kind != ASYNC_PACKET:
+            return
+        packet, damaged = decode_received(payload)
+        if isinstance(packet, Response):
+            self.actions += self.port.firewire_response(payload, board_now)
+        elif (
+            isinstance(packet, BlockWriteRequest)
+            and packet.destination_node == BROADCAST_PHY
+            and broadcast_sequence(packet) is not None
+        ):
+            self.actions += self.port.hub_block(packet, board_now)  # another board's block
+        elif isinstance(packet, Request):
+            self.serve_packet(packet, damaged, header.sender_phy, header.sequence, now)
+            if is_hub_query(packet) and packet.destination_node in (0, BROADCAST_PHY):
+                self.actions += self.port.query_taken(board_now)
 
 
 @dataclass
@@ -122,12 +151,16 @@ class QlaBusNode:
             drop_acks=False,  # forwarded requests are answered in ack frames
         )
         self.responder = DefectiveResponder(
-            LOCAL_BUS_IDS | 63, ClockedBoard(board), JHU_FIRMWARE, defects=options.defects
+            BROADCAST_ID, ClockedBoard(board), JHU_FIRMWARE, defects=options.defects
         )
         self.port = EthernetPort(
             board, self.responder, StationLink(self.station), ethernet_hub=options.ethernet_hub
         )
         self.epoch = time.monotonic()
+        self.link = BoardLink(self.responder, self.station.send, self.station, epoch=self.epoch)
+        self.link.port = self.port
+        self.link.actions = []
+        self.link.on_reset = self._on_reset
         self._running = True
         self._unicast: socket.socket | None = None
         self._udp: list[socket.socket] = []
@@ -167,41 +200,33 @@ class QlaBusNode:
 
     # -- the loop -------------------------------------------------------------------------
     def run(self) -> None:
-        station = self.station
+        station, link = self.station, self.link
         medium = station.medium.sock
         try:
-            due = 0.0
             while self._running:
-                wait = min(POLL, max(0.0, due - time.monotonic()))
+                wait = min(POLL, max(0.0, link.due - time.monotonic()))
                 if (deadline := self.port.next_deadline()) is not None:
                     wait = min(wait, max(0.0, deadline - self.now()))
                 readable, _, _ = select.select([medium, *self._udp], [], [], wait)
-                actions: list[Action] = []
                 for sock in readable:
                     if sock is medium:
-                        actions += self._bus_frame()
+                        if (frame := station.receive()) is not None:
+                            link.receive(frame[0], frame[1], time.monotonic())
                     else:
-                        actions += self._datagrams(sock)
-                actions += self.port.poll(self.now())
-                self._carry_out(actions)
-                self._apply_changes()
-                if time.monotonic() >= due:
-                    station.service()
-                    self._apply_changes()
-                    due = station.next_deadline()
+                        link.actions += self._datagrams(sock)
+                actions, link.actions = link.actions, []
+                self._carry_out(actions + self.port.poll(self.now()))
+                link.apply_changes()
+                if time.monotonic() >= link.due:
+                    link.service()
         finally:
             try:
                 station.close()
             finally:
                 self.close()
 
-    def _apply_changes(self) -> None:
-        for change in self.station.changes():
-            if isinstance(change, BusReset):
-                self.responder.bus_reset(LOCAL_BUS_IDS | change.phy_id, change.generation)
-                self.board.set_physical_id(change.phy_id)
-            elif isinstance(change, Refused):
-                raise RuntimeError(f"the bus refused this node: {change.reason}")
+    def _on_reset(self, change: BusReset) -> None:
+        self.board.set_physical_id(change.phy_id)
 
     def _datagrams(self, sock: socket.socket) -> list[Action]:
         actions: list[Action] = []
@@ -211,49 +236,6 @@ class QlaBusNode:
             except (BlockingIOError, InterruptedError):
                 return actions
             actions += self.port.receive(payload, sender, self.now())
-
-    def _bus_frame(self) -> list[Action]:
-        station = self.station
-        frame = station.receive()
-        if frame is None or station.phy_id is None:
-            return []
-        header, payload = frame
-        if header.generation != station.generation:
-            return []  # a packet of another generation never reaches a link after a reset
-        if header.kind == FrameKind.ack:
-            concatenated = parse_ack(payload).concatenated
-            return self.port.firewire_response(concatenated, self.now()) if concatenated else []
-        if header.kind == FrameKind.async_packet:
-            return self._bus_packet(header, payload)
-        return []
-
-    def _bus_packet(self, header: FrameHeader, payload: bytes) -> list[Action]:
-        now = self.now()
-        packet, damaged = decode_received(payload)
-        if isinstance(packet, Response):
-            return self.port.firewire_response(payload, now)
-        if (
-            isinstance(packet, BlockWriteRequest)
-            and packet.destination_node == BROADCAST_PHY
-            and broadcast_sequence(packet) is not None
-        ):
-            return self.port.hub_block(packet, now)  # another board's block, for the hub
-        if not isinstance(packet, Request):
-            return []
-        reply = self.responder.receive_packet(packet, now, damaged=damaged)
-        if reply.ack is not None:
-            response = b"" if reply.response is None else encode_packet(reply.response)
-            tlabel = packet.tlabel
-            if reply.concatenated or not response:
-                ack = AckPayload(ack_byte(reply.ack), tlabel, header.sequence, response)
-                self.station.send(FrameKind.ack, header.sender_phy, ack.pack())
-            else:
-                ack = AckPayload(ack_byte(reply.ack), tlabel, header.sequence)
-                self.station.send(FrameKind.ack, header.sender_phy, ack.pack())
-                self.station.send(FrameKind.async_packet, header.sender_phy, response)
-        if is_hub_query(packet) and packet.destination_node in (0, BROADCAST_PHY):
-            return self.port.query_taken(now)
-        return []
 
     def _carry_out(self, actions: list[Action]) -> None:
         processed = self.now()
