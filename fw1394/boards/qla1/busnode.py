@@ -20,7 +20,6 @@ firmware 9 only it is cabled to the host.
 
 from __future__ import annotations
 
-import argparse
 import select
 import signal
 import socket
@@ -29,7 +28,7 @@ import time
 from dataclasses import dataclass
 from types import FrameType
 
-from fw1394.boards.qla1.board import Qla1Board
+from fw1394.boards.qla1.board import BOARD_DEFECTS, Qla1Board
 from fw1394.boards.qla1.eth_server import (
     MAX_DATAGRAM,
     check_multicast_allowed,
@@ -254,83 +253,60 @@ class QlaBusNode:
                 )
 
 
-# -- command-line glue for ``fw1394 node run`` / ``fw1394 bus up`` --------------------------
+# -- the node program (fw1394.boards.registry: qla1's node_program) ----------------------------
+class Qla1NodeProgram:
+    """How ``python -m fw1394.node`` runs a qla1 node: with its Ethernet side."""
 
+    def check(self, *, eth1394: str | None, firmware: int) -> None:
+        if eth1394 is not None:
+            require_loopback(parse_endpoint(eth1394).host)
+            check_multicast_allowed(firmware)
 
-def add_eth1394_options(parser: argparse.ArgumentParser) -> None:
-    """``--eth1394 [ADDRESS[:PORT]]`` and ``--firmware`` (qla1 boards)."""
-    group = parser.add_argument_group("JHU Eth1394 (qla1 boards)")
-    group.add_argument(
-        "--eth1394",
-        nargs="?",
-        const="127.0.0.1",
-        default=None,
-        metavar="ADDRESS[:PORT]",
-        help="cable the board to a host at this loopback server IP (default 127.0.0.1:1394)",
-    )
-    group.add_argument(
-        "--firmware",
-        type=int,
-        default=8,
-        help="qla1 firmware revision (default 8: bridge mode; >= 9 needs a network namespace)",
-    )
-
-
-def eth1394_node_arguments(args: argparse.Namespace) -> tuple[str, ...]:
-    """The options above again, for ``bus up`` to hand to its node processes.
-
-    Raises ValueError (with the reason) for a setting no node could start with.
-    """
-    if args.board != "qla1":
-        if args.eth1394 is not None:
-            raise ValueError(f"--eth1394 needs --board qla1, not {args.board}")
-        return ()
-    out: tuple[str, ...] = ("--firmware", str(args.firmware))
-    if args.eth1394 is not None:
-        require_loopback(parse_endpoint(args.eth1394).host)
-        check_multicast_allowed(args.firmware)
-        out += ("--eth1394", args.eth1394)
-    return out
-
-
-def run_from_arguments(
-    args: argparse.Namespace,
-    config: BusConfig,
-    timing: Timing | None,
-    faults: FaultConfig | None,
-) -> None:
-    """Run the qla1 board of ``fw1394 node run`` until SIGINT or SIGTERM."""
-    from fw1394.boards.registry import board_defects, check_defects
-
-    defects = check_defects("qla1", getattr(args, "defect", None) or [])
-    board = Qla1Board(
-        board_id=args.board_id, firmware=args.firmware, defects=board_defects("qla1", defects)
-    )
-    # In a bus of several processes the first one is the board nearest the host;
-    # before firmware 9 it is also the only one with an Ethernet cable.
-    hub = args.rank in (None, 0)
-    cabled = args.eth1394 is not None and (hub or args.firmware >= MULTICAST_FIRMWARE)
-    options = BusNodeOptions(
-        config=config,
-        rank=args.rank,
-        timing=timing,
-        faults=faults,
-        eth1394=parse_endpoint(args.eth1394) if cabled else None,
-        ethernet_hub=hub,
-        defects=defects,
-    )
-    node = QlaBusNode(board, options)
-    if node.addresses and not args.quiet:
-        print(
-            f"fw1394 node: board {board.board_id} on {', '.join(node.addresses)}", file=sys.stderr
+    def run(
+        self,
+        *,
+        config: BusConfig,
+        board_id: int,
+        rank: int | None,
+        timing: Timing | None,
+        faults: FaultConfig | None,
+        defects: frozenset[str],
+        eth1394: str | None,
+        firmware: int,
+        quiet: bool,
+    ) -> None:
+        """Run the board until SIGINT or SIGTERM; ValueError or OSError if it cannot start."""
+        self.check(eth1394=eth1394, firmware=firmware)
+        board = Qla1Board(board_id=board_id, firmware=firmware, defects=defects & BOARD_DEFECTS)
+        # In a bus of several processes the first one is the board nearest the host;
+        # before firmware 9 it is also the only one with an Ethernet cable.
+        hub = rank in (None, 0)
+        cabled = eth1394 is not None and (hub or firmware >= MULTICAST_FIRMWARE)
+        options = BusNodeOptions(
+            config=config,
+            rank=rank,
+            timing=timing,
+            faults=faults,
+            eth1394=parse_endpoint(eth1394) if cabled and eth1394 else None,
+            ethernet_hub=hub,
+            defects=defects,
         )
+        node = QlaBusNode(board, options)
+        if node.addresses and not quiet:
+            print(
+                f"fw1394 node: board {board.board_id} on {', '.join(node.addresses)}",
+                file=sys.stderr,
+            )
 
-    def stop(signum: int, frame: FrameType | None) -> None:
-        node.stop()
+        def stop(signum: int, frame: FrameType | None) -> None:
+            node.stop()
 
-    previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        node.run()
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
+        previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
+        try:
+            node.run()
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+
+
+QLA1_NODE = Qla1NodeProgram()
