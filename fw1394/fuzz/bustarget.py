@@ -16,7 +16,7 @@ from fw1394.fuzz.tunnel import Replies
 from fw1394.fuzz.udptarget import TUNNEL_VISIBILITY
 from fw1394.packets.nodeid import node_id
 from fw1394.transport.config import BusConfig, BusNameError
-from fw1394.transport.link import ACK, ASYNC_PACKET, BusRefusedError, Link
+from fw1394.transport.link import ACK, ASYNC_PACKET, BusRefusedError, LinkLayer
 from fw1394.transport.procs import pid_namespace, process_alive
 from fw1394.transport.station import Station
 from fw1394.transport.wire import FrameHeader, MemberInfo
@@ -25,7 +25,7 @@ _POLL = 0.002
 _JOIN_TIMEOUT = 10.0
 
 
-class NodeLink(Link):
+class NodeLink(LinkLayer):
     """The fuzzer's link: keeps what physical ID ``phy`` sends, for :class:`Replies`.
 
     Bus resets reach no engine here: :meth:`BusTarget.problem` judges them from

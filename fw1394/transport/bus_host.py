@@ -23,6 +23,7 @@ from fw1394.engine import Event, FailureReason, Requester, TransactionEvent, Tra
 from fw1394.packets import BlockReadResponse, RCode, name_of
 from fw1394.packets.fast import encode_packet
 from fw1394.packets.nodeid import BROADCAST_ID, resolve
+from fw1394.packets.nodeid import LOCAL_BUS as LOCAL_BUS  # the bus hosts address, re-exported
 from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig
 from fw1394.transport.link import ACK_SIZE, BusRefusedError, RequesterLink

@@ -14,10 +14,10 @@ once, for both roles:
   and turns ack frames, concatenated responses and split responses into
   engine calls.
 
-Both share :class:`Link`: one turn of a station's loop (receive, keep the
+Both share :class:`LinkLayer`: one turn of a station's loop (receive, keep the
 membership's timers), the generation check every received frame passes, and
 the bus-reset hooks that give the engine its new node ID and generation. A
-link made without a station (a point-to-point tunnel) uses :meth:`Link.take`
+link made without a station (a point-to-point tunnel) uses :meth:`LinkLayer.take`
 directly with the frames it reads itself.
 
 The common turn is plain ints and bytes: a sender is ``send(kind,
@@ -61,7 +61,7 @@ class BusRefusedError(RuntimeError):
     """The coordinator would not take this member (the bus already has 63)."""
 
 
-class Link:
+class LinkLayer:
     """What both roles share: a station's loop, generation checks, reset hooks."""
 
     def __init__(self, send: Send, station: Station | None = None) -> None:
@@ -139,7 +139,7 @@ class Link:
         return self.station
 
 
-class ResponderLink(Link):
+class ResponderLink(LinkLayer):
     """A responder behind a link: request frames in, acks and responses out.
 
     ``epoch`` is subtracted from the monotonic time of each request before the
@@ -212,7 +212,7 @@ class ResponderLink(Link):
             self.on_drop(requester, error)
 
 
-class RequesterLink(Link):
+class RequesterLink(LinkLayer):
     """A requester behind a link: its packets out, acks and responses in."""
 
     def __init__(self, requester: Requester, send: Send, station: Station | None = None) -> None:
