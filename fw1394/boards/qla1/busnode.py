@@ -42,7 +42,7 @@ from fw1394.boards.qla1.firewire import (
     broadcast_sequence,
     is_hub_query,
 )
-from fw1394.engine import JHU_FIRMWARE
+from fw1394.engine import JHU_FIRMWARE, Responder
 from fw1394.engine.defects import DefectiveResponder
 from fw1394.engine.responder import decode_received
 from fw1394.packets import BlockWriteRequest, Request, Response
@@ -95,8 +95,10 @@ class BoardLink(ResponderLink):
     The port's answers collect in :attr:`actions` for the node to carry out.
     """
 
-    port: EthernetPort
-    actions: list[Action]
+    def __init__(self, responder: Responder, station: Station, port: EthernetPort) -> None:
+        super().__init__(responder, station.send, station, epoch=time.monotonic())
+        self.port = port
+        self.actions: list[Action] = []
 
     def take(self, header: FrameHeader, payload: bytes, now: float) -> None:
         board_now = now - self.epoch
@@ -155,11 +157,9 @@ class QlaBusNode:
         self.port = EthernetPort(
             board, self.responder, StationLink(self.station), ethernet_hub=options.ethernet_hub
         )
-        self.epoch = time.monotonic()
-        self.link = BoardLink(self.responder, self.station.send, self.station, epoch=self.epoch)
-        self.link.port = self.port
-        self.link.actions = []
+        self.link = BoardLink(self.responder, self.station, self.port)
         self.link.on_reset = self._on_reset
+        self.epoch = self.link.epoch
         self._running = True
         self._unicast: socket.socket | None = None
         self._udp: list[socket.socket] = []
