@@ -161,9 +161,9 @@ class Link:
     def bus_reset(self, generation: int) -> None:
         """A bus reset: packets in flight are lost, every node enters ``generation``."""
         self._in_flight.clear()
-        self.requester.bus_reset(generation)
+        self.requester.bus_reset(generation=generation)
         for responder in self.responders:
-            responder.bus_reset(responder.node_id, generation)
+            responder.bus_reset(node_id=responder.node_id, generation=generation)
         self._record(Exchange(self.now, "bus_reset", BROADCAST_ID, BROADCAST_ID))
 
     @property

@@ -307,7 +307,7 @@ class Requester:
             else:
                 self._send_again(transaction, now)
 
-    def bus_reset(self, generation: int, node_id: int | None = None) -> None:
+    def bus_reset(self, *, generation: int, node_id: int | None = None) -> None:
         """A bus reset: every outstanding transaction fails; new ones use ``generation``."""
         detail = f"bus generation {self._generation} -> {generation}"
         for transaction in list(self._transactions.values()):

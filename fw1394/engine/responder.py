@@ -175,7 +175,7 @@ class Responder:
         self._busy_left = count
         self._busy_reply = Reply(ack, None, False)
 
-    def bus_reset(self, node_id: int, generation: int) -> None:
+    def bus_reset(self, *, node_id: int, generation: int) -> None:
         """Take the physical ID the node got in the new bus generation."""
         self._node_id = node_id
         self._generation = generation

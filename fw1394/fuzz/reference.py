@@ -106,9 +106,9 @@ class Reference:
     def renumber(self, node_id: int) -> None:
         """The target took a new node ID (a bus reset)."""
         self.node_id = node_id
-        self.model.bus_reset(node_id, self.model.generation + 1)
+        self.model.bus_reset(node_id=node_id, generation=self.model.generation + 1)
         if self.twin is not None:
-            self.twin.bus_reset(node_id, self.twin.generation + 1)
+            self.twin.bus_reset(node_id=node_id, generation=self.twin.generation + 1)
 
 
 _SILENT = Reply(None, None, False)

@@ -358,7 +358,7 @@ def test_bus_reset_fails_everything_and_renumbers() -> None:
     first, _ = pending_read(requester)
     second = requester.write_quadlet(0xFFC2, 0, 1, 0.0)
     broadcast = requester.write_quadlet(0xFFFF, 0, 1, 0.0)
-    requester.bus_reset(5, node_id=0xFFC3)
+    requester.bus_reset(generation=5, node_id=0xFFC3)
     detail = "bus generation 4 -> 5"
     assert requester.events() == [
         WriteCompleted(broadcast),
