@@ -217,7 +217,7 @@ def run_replay(args: argparse.Namespace) -> int:
 def run_serve(args: argparse.Namespace) -> int:
     from fw1394.fuzz.contract import CONTRACTS
     from fw1394.fuzz.serve import ServeError, TunnelNode, loopback_address
-    from fw1394.fuzz.settings import DEFAULT_POLICIES, Settings, SettingsError
+    from fw1394.fuzz.settings import Settings, SettingsError, default_policy
     from fw1394.fuzz.targets import check
 
     if args.parent_pid is not None:
@@ -232,7 +232,7 @@ def run_serve(args: argparse.Namespace) -> int:
         raise CliError(str(error)) from None
     if args.duration is not None and args.duration <= 0:
         raise CliError("--duration must be positive")
-    policy = CONTRACTS[args.policy or DEFAULT_POLICIES.get(args.board, "thesis")]
+    policy = CONTRACTS[args.policy or default_policy(args.board)]
     try:
         node = TunnelNode(
             address,

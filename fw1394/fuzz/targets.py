@@ -16,7 +16,7 @@ from fw1394.fuzz.clock import SimulatedClock, WallClock
 from fw1394.fuzz.contract import CONTRACTS
 from fw1394.fuzz.offsets import OffsetModel, offset_model
 from fw1394.fuzz.reference import Reference
-from fw1394.fuzz.settings import DEFAULT_POLICIES, Settings, SettingsError
+from fw1394.fuzz.settings import Settings, SettingsError, default_policy
 from fw1394.fuzz.target import Target
 from fw1394.fuzz.trial import Trial
 
@@ -63,7 +63,7 @@ def open_target(settings: Settings) -> Target:
     if scheme == "inproc":
         from fw1394.fuzz.inproc import InprocTarget
 
-        policy = settings.policy or DEFAULT_POLICIES.get(rest, "thesis")
+        policy = settings.policy or default_policy(rest)
         return InprocTarget(
             rest,
             board_id=settings.board_id,

@@ -28,7 +28,6 @@ from dataclasses import dataclass, field, replace
 
 from fw1394.boards.qla1.board import Qla1Board
 from fw1394.boards.qla1.firewire import (
-    BROADCAST_NODE,
     FireWireState,
     broadcast_sequence,
     hub_broadcast,
@@ -62,9 +61,10 @@ from fw1394.packets.eth1394 import (
     parse_request,
 )
 from fw1394.packets.fast import decode_packet, encode_packet
+from fw1394.packets.nodeid import BROADCAST_PHY, LOCAL_BUS
+from fw1394.packets.nodeid import node_id as node_id_of
 
 HostAddress = tuple[str, int]
-LOCAL_BUS = 0x3FF
 #: Quadlet 2 of the unasked broadcast-read response: the hub memory offset.
 BROADCAST_RESPONSE_Q2 = HUB_MEMORY_BASE
 #: ETH_STATUS write bit that clears the sticky error flags.
@@ -204,7 +204,7 @@ class EthernetPort:
         control = framed.control
         self.last_host, self.host_id = sender, packet.source_id
         destination = packet.destination_node
-        broadcast = destination == BROADCAST_NODE
+        broadcast = destination == BROADCAST_PHY
         is_read = isinstance(packet, _READS)
         firewire = self.firewire
         if not control.no_forward and (
@@ -238,8 +238,8 @@ class EthernetPort:
     ) -> list[Action]:
         # The Ethernet path decodes offset bits 15..0 only (no CSR window here).
         target = replace(packet, offset=packet.offset & REGISTER_INDEX_MASK)
-        if not (isinstance(packet, _WRITES) and packet.destination_node == BROADCAST_NODE):
-            own = self.responder.node_id & BROADCAST_NODE
+        if not (isinstance(packet, _WRITES) and packet.destination_node == BROADCAST_PHY):
+            own = self.responder.node_id & BROADCAST_PHY
             target = replace(target, destination_id=packet.destination_id & ~0x3F | own)
         if isinstance(target, BlockReadRequest) and self._hub_round_waiting(target):
             deadline = now + self.hub_read_wait
@@ -359,7 +359,7 @@ class EthernetPort:
         response = BlockReadResponse(
             destination_id=target.requester,
             tlabel=target.tlabel,
-            source_id=LOCAL_BUS << 6 | self.board.board_id,
+            source_id=node_id_of(self.board.board_id),
             reserved=BROADCAST_RESPONSE_Q2,
             data=data,
         )
