@@ -33,9 +33,9 @@ from fw1394.boards.qla1.firewire import (
     hub_broadcast,
     is_hub_query,
 )
+from fw1394.boards.qla1.regmap import ETHERNET_DECODING
 from fw1394.boards.qla1.regs import (
     HUB_MEMORY_BASE,
-    REGISTER_INDEX_MASK,
     BoardRegister,
 )
 from fw1394.engine import Responder
@@ -65,6 +65,8 @@ from fw1394.packets.nodeid import BROADCAST_PHY, LOCAL_BUS
 from fw1394.packets.nodeid import node_id as node_id_of
 
 HostAddress = tuple[str, int]
+#: What an offset reaches over this path (no CSR window: only bits 15..0 arrive).
+_ethernet_address = ETHERNET_DECODING.address
 #: Quadlet 2 of the unasked broadcast-read response: the hub memory offset.
 BROADCAST_RESPONSE_Q2 = HUB_MEMORY_BASE
 #: ETH_STATUS write bit that clears the sticky error flags.
@@ -236,8 +238,7 @@ class EthernetPort:
         sender: HostAddress,
         now: float,
     ) -> list[Action]:
-        # The Ethernet path decodes offset bits 15..0 only (no CSR window here).
-        target = replace(packet, offset=packet.offset & REGISTER_INDEX_MASK)
+        target = replace(packet, offset=_ethernet_address(packet.offset))
         if not (isinstance(packet, _WRITES) and packet.destination_node == BROADCAST_PHY):
             own = self.responder.node_id & BROADCAST_PHY
             target = replace(target, destination_id=packet.destination_id & ~0x3F | own)
@@ -271,7 +272,7 @@ class EthernetPort:
     def _after_write(
         self, packet: QuadletWriteRequest, no_forward: bool, sender: HostAddress, now: float
     ) -> list[Action]:
-        index = packet.offset & REGISTER_INDEX_MASK
+        index = _ethernet_address(packet.offset)
         if index == BoardRegister.ETH_STATUS and packet.quadlet_data & CLEAR_ERRORS:
             self.summary_error = False
         if not is_hub_query(packet):
@@ -324,7 +325,7 @@ class EthernetPort:
     def _hub_round_waiting(self, request: BlockReadRequest) -> bool:
         hub = self.board.hub
         return (
-            request.offset & REGISTER_INDEX_MASK == HUB_MEMORY_BASE
+            _ethernet_address(request.offset) == HUB_MEMORY_BASE
             and bool(hub.board_mask)
             and not hub.complete
         )

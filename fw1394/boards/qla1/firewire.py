@@ -17,7 +17,8 @@ from __future__ import annotations
 from typing import Protocol
 
 from fw1394.boards.qla1.board import Qla1Board
-from fw1394.boards.qla1.regs import HUB_MEMORY_BASE, HUB_QUERY, REGISTER_INDEX_MASK
+from fw1394.boards.qla1.regmap import FIREWIRE_DECODING
+from fw1394.boards.qla1.regs import HUB_MEMORY_BASE, HUB_QUERY
 from fw1394.packets import AsyncPacket, BlockWriteRequest, QuadletWriteRequest
 from fw1394.packets.nodeid import BROADCAST_ID, BROADCAST_PHY, LOCAL_BASE, phy_of
 from fw1394.packets.nodeid import node_id as node_id_of
@@ -88,7 +89,8 @@ class ClockedBoard:
 def is_hub_query(packet: AsyncPacket) -> bool:
     """A quadlet write to 0x1800: the broadcast query (only offset bits 15..0 count)."""
     return (
-        isinstance(packet, QuadletWriteRequest) and packet.offset & REGISTER_INDEX_MASK == HUB_QUERY
+        isinstance(packet, QuadletWriteRequest)
+        and FIREWIRE_DECODING.address(packet.offset) == HUB_QUERY
     )
 
 
@@ -124,6 +126,6 @@ def hub_broadcast(board: Qla1Board, node_id: int) -> BlockWriteRequest | None:
 
 def broadcast_sequence(packet: BlockWriteRequest) -> int | None:
     """The query sequence a hub-data broadcast answers, or None if it is not one."""
-    if packet.offset & REGISTER_INDEX_MASK != HUB_MEMORY_BASE or len(packet.data) < 4:
+    if FIREWIRE_DECODING.address(packet.offset) != HUB_MEMORY_BASE or len(packet.data) < 4:
         return None
     return int.from_bytes(packet.data[:4], "big") >> 16

@@ -38,9 +38,11 @@ from fw1394.boards.qla1.regs import (
 from fw1394.boards.regmap import ETHERNET, FIREWIRE, Decoding, Group, Register, RegisterMap, Window
 
 CSR_WINDOW = Window(CSR_WINDOW_PREFIX << CSR_WINDOW_SHIFT, CSR_BYTE_MASK + 1)
-#: The link decodes the CSR window itself; everything else reaches the register
-#: bus as offset bits 15..0, a quadlet index, on either path.
-DECODING = Decoding(kept=REGISTER_INDEX_MASK, windows=(CSR_WINDOW,))
+#: Over FireWire the link decodes the CSR window itself; everything else reaches
+#: the register bus as offset bits 15..0, a quadlet index.
+FIREWIRE_DECODING = Decoding(kept=REGISTER_INDEX_MASK, windows=(CSR_WINDOW,))
+#: Over Ethernet only offset bits 15..0 reach the register bus: no CSR window.
+ETHERNET_DECODING = Decoding(kept=REGISTER_INDEX_MASK)
 
 BOARD = Group(
     "board",
@@ -279,6 +281,6 @@ CSR = Group(
 REGISTER_MAP = RegisterMap(
     "qla1",
     (BOARD, CHANNEL, HUB, CSR),
-    decodings={FIREWIRE: DECODING, ETHERNET: DECODING},
+    decodings={FIREWIRE: FIREWIRE_DECODING, ETHERNET: ETHERNET_DECODING},
     probe="HARDWARE_VERSION",
 )

@@ -7,7 +7,7 @@ prints these tables.
 
 from __future__ import annotations
 
-from fw1394.boards.regmap import Decoding, Group, Register, RegisterMap
+from fw1394.boards.regmap import FIREWIRE, Decoding, Group, Register, RegisterMap
 from fw1394.boards.snake2010.spec import (
     FIRMWARE_VERSION,
     HIGHEST_REGISTER,
@@ -161,7 +161,7 @@ CHANNEL = Group(
 REGISTER_MAP = RegisterMap(
     "snake2010",
     (GLOBAL, CHANNEL),
-    decodings={"firewire": Decoding(kept=INDEX_BITS)},
+    decodings={FIREWIRE: Decoding(kept=INDEX_BITS)},
     probe="VERSION",
     # Unmapped global devices and both edges of the 8-bit register decoder.
     spots=(5, 6, 7, HIGHEST_REGISTER, HIGHEST_REGISTER + 1),
