@@ -256,13 +256,14 @@ def run_serve(args: argparse.Namespace) -> int:
 
 def list_defects(args: argparse.Namespace) -> int:
     from fw1394.boards.registry import known_defects
-    from fw1394.fuzz.targets import KINDS
+    from fw1394.fuzz.targets import kinds
 
-    if args.board is not None and args.board not in KINDS:
-        raise CliError(f"unknown board kind {args.board!r}; known kinds: {', '.join(KINDS)}")
+    known = kinds()
+    if args.board is not None and args.board not in known:
+        raise CliError(f"unknown board kind {args.board!r}; known kinds: {', '.join(known)}")
     rows = known_defects(args.board)
     if args.board is None:
-        for kind in KINDS:
+        for kind in known:
             rows.update(known_defects(kind))
     width = max(len(name) for name in rows)
     for name, text in rows.items():

@@ -21,7 +21,11 @@ from fw1394.fuzz.target import Target
 from fw1394.fuzz.trial import Trial
 
 SCHEMES = ("inproc", "bus", "udp")
-KINDS = tuple(sorted(BOARDS))
+
+
+def kinds() -> tuple[str, ...]:
+    """Board kinds a target can be or be modelled as (the registry, read when asked)."""
+    return tuple(sorted(BOARDS))
 
 
 def target_kind(settings: Settings) -> str | None:
@@ -40,8 +44,8 @@ def check(settings: Settings) -> None:
             f"target {settings.target!r}: use inproc:BOARD, bus:NAME/NODE or udp:HOST[:PORT]"
         )
     for kind in (rest if scheme == "inproc" else None, settings.model):
-        if kind is not None and kind not in KINDS:
-            raise SettingsError(f"unknown board kind {kind!r}; known kinds: {', '.join(KINDS)}")
+        if kind is not None and kind not in BOARDS:
+            raise SettingsError(f"unknown board kind {kind!r}; known kinds: {', '.join(kinds())}")
     if scheme == "inproc":
         if settings.model not in (None, rest):
             raise SettingsError("--model must be the target's own kind in-process")
