@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from fw1394.cli.common import CliError, integer
+from fw1394.packets.nodeid import LOCAL_BASE
 
 EXAMPLES = """\
 examples:
@@ -58,7 +59,7 @@ def register(subparsers: Any) -> None:
     serve.add_argument("--eth1394", action="store_true", help="JHU Eth1394 framing")
     serve.add_argument("--policy", choices=("thesis", "jhu", "ieee1394"), default=None)
     serve.add_argument("--board-id", type=integer, default=0, help="the board's own ID")
-    serve.add_argument("--node-id", type=integer, default=0xFFC0, help="16-bit node ID")
+    serve.add_argument("--node-id", type=integer, default=LOCAL_BASE, help="16-bit node ID")
     serve.add_argument("--defect", action="append", default=[], metavar="NAME")
     serve.add_argument("--duration", type=float, default=None, help="stop after S seconds")
     serve.add_argument("--parent-pid", type=int, default=None, help=argparse.SUPPRESS)
@@ -81,7 +82,7 @@ def add_run_options(run: argparse.ArgumentParser) -> None:
     )
     what.add_argument("--model", default=None, help="board kind of the reference model")
     what.add_argument("--board-id", type=integer, default=0, help="the board's own ID (default 0)")
-    what.add_argument("--node-id", type=integer, default=0xFFC0, help="16-bit node ID (0xffc0)")
+    what.add_argument("--node-id", type=integer, default=LOCAL_BASE, help="16-bit node ID (0xffc0)")
     what.add_argument(
         "--policy",
         choices=("thesis", "jhu", "ieee1394"),

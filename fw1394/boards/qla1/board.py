@@ -43,6 +43,7 @@ from fw1394.boards.qla1.regs import (
 from fw1394.boards.qla1.status import BoardControl
 from fw1394.boards.qla1.watchdog import Watchdog
 from fw1394.engine.space import AddressError, DataError
+from fw1394.packets.nodeid import phy_of
 
 #: STATUS writes are stored and read back verbatim (breaks the board id).
 DEFECT_STATUS_WRITE_STORED = "status-write-stored"
@@ -97,7 +98,7 @@ class Qla1Board:
         self.defects = frozenset(defects)
         self.git_description = git_description & 0xFFFFFFFF
         self._initial_ip = IP_UNASSIGNED if ip_address is None else ip_to_register(ip_address)
-        self._node_id = physical_id & 0x3F
+        self._node_id = phy_of(physical_id)
         self._now = 0
         self._power_up()
         # Readers look attributes up on each call, so they survive a reboot's fresh state.
@@ -134,7 +135,7 @@ class Qla1Board:
 
     def set_physical_id(self, physical_id: int) -> None:
         """The node number the bus gave this node (PHY register 0, CSR NODE_IDS)."""
-        self._node_id = physical_id & 0x3F
+        self._node_id = phy_of(physical_id)
         self.phy.node_id = self._node_id
         self.csr.node_id = self._node_id
 

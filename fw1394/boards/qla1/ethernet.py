@@ -61,7 +61,7 @@ from fw1394.packets.eth1394 import (
     parse_request,
 )
 from fw1394.packets.fast import decode_packet, encode_packet
-from fw1394.packets.nodeid import BROADCAST_PHY, LOCAL_BUS
+from fw1394.packets.nodeid import BROADCAST_PHY, LOCAL_BUS, bus_of
 from fw1394.packets.nodeid import node_id as node_id_of
 
 HostAddress = tuple[str, int]
@@ -241,7 +241,7 @@ class EthernetPort:
         target = replace(packet, offset=_ethernet_address(packet.offset))
         if not (isinstance(packet, _WRITES) and packet.destination_node == BROADCAST_PHY):
             own = self.responder.node_id & BROADCAST_PHY
-            target = replace(target, destination_id=packet.destination_id & ~0x3F | own)
+            target = replace(target, destination_id=node_id_of(own, bus_of(packet.destination_id)))
         if isinstance(target, BlockReadRequest) and self._hub_round_waiting(target):
             deadline = now + self.hub_read_wait
             self._pending.append(
@@ -265,7 +265,7 @@ class EthernetPort:
         reply = self.responder.receive_packet(target, now, damaged=False)
         if reply.response is None or not isinstance(reply.response, Response):
             return []
-        source = destination_id & ~0x3F | reply_node
+        source = node_id_of(reply_node, bus_of(destination_id))
         response = replace(reply.response, source_id=source)
         return [Reply(sender, zero_crc_bytes(response), self._extra(no_forward), now)]
 
