@@ -123,7 +123,10 @@ class Decoding:
         return address
 
     def aliases(self, address: int, high: int) -> int:
-        """An offset other than ``address`` that decodes to it: ``high`` in the bits not kept."""
+        """An offset that decodes to ``address``, with ``high`` in the bits not kept.
+
+        It differs from ``address`` unless the decoder keeps every offset bit.
+        """
         spare = OFFSET_MASK & ~self.kept
         alias = address | (_spread(high, spare) if spare else 0)
         return alias & OFFSET_MASK
@@ -132,7 +135,6 @@ class Decoding:
 def _spread(value: int, mask: int) -> int:
     """``value``'s low bits placed into the set bits of ``mask`` (at least one set)."""
     out, bit = 0, 0
-    value = value or 1
     for position in range(48):
         if mask >> position & 1:
             if value >> bit & 1:
