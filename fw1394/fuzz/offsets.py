@@ -2,10 +2,10 @@
 
 A random 48-bit offset almost never hits a register, so requests mostly go
 where the board decodes something (derived from the register map its kind
-registers, :mod:`fw1394.boards.regmap`), to the CSR and configuration-ROM space every node has, and
-to the edges where parsers go wrong: the top of the address space, the JHU
-"fake broadcast" offset 0xFFFF_FFFF_0000, and offsets that alias a register
-above the 16 bits the thesis and JHU boards decode.
+registers, :mod:`fw1394.boards.regmap`), to the CSR and configuration-ROM
+space every node has, and to the edges where parsers go wrong: the top of the
+address space, the JHU "fake broadcast" offset 0xFFFF_FFFF_0000, and offsets
+that alias a register above the 16 bits the thesis and JHU boards decode.
 """
 
 from __future__ import annotations
