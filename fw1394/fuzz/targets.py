@@ -16,12 +16,16 @@ from fw1394.fuzz.clock import SimulatedClock, WallClock
 from fw1394.fuzz.contract import CONTRACTS
 from fw1394.fuzz.offsets import OffsetModel, offset_model
 from fw1394.fuzz.reference import Reference
-from fw1394.fuzz.settings import DEFAULT_POLICIES, Settings, SettingsError
+from fw1394.fuzz.settings import Settings, SettingsError, default_policy
 from fw1394.fuzz.target import Target
 from fw1394.fuzz.trial import Trial
 
 SCHEMES = ("inproc", "bus", "udp")
-KINDS = tuple(sorted(BOARDS))
+
+
+def kinds() -> tuple[str, ...]:
+    """Board kinds a target can be or be modelled as (the registry, read when asked)."""
+    return tuple(sorted(BOARDS))
 
 
 def target_kind(settings: Settings) -> str | None:
@@ -40,8 +44,8 @@ def check(settings: Settings) -> None:
             f"target {settings.target!r}: use inproc:BOARD, bus:NAME/NODE or udp:HOST[:PORT]"
         )
     for kind in (rest if scheme == "inproc" else None, settings.model):
-        if kind is not None and kind not in KINDS:
-            raise SettingsError(f"unknown board kind {kind!r}; known kinds: {', '.join(KINDS)}")
+        if kind is not None and kind not in BOARDS:
+            raise SettingsError(f"unknown board kind {kind!r}; known kinds: {', '.join(kinds())}")
     if scheme == "inproc":
         if settings.model not in (None, rest):
             raise SettingsError("--model must be the target's own kind in-process")
@@ -63,7 +67,7 @@ def open_target(settings: Settings) -> Target:
     if scheme == "inproc":
         from fw1394.fuzz.inproc import InprocTarget
 
-        policy = settings.policy or DEFAULT_POLICIES.get(rest, "thesis")
+        policy = settings.policy or default_policy(rest)
         return InprocTarget(
             rest,
             board_id=settings.board_id,
