@@ -457,9 +457,10 @@ class Requester:
         if unknown:
             kind = "lock" if isinstance(request, LockRequest) else "write"
             detail = f"{detail}; outcome unknown: the {kind} may have been performed"
-        # Without its answer, the answer itself may still come, as late as a
-        # responder may send it; with it, only a duplicate may.
-        hold = self.split_timeout if reason in _UNANSWERED else self._answered_hold()
+        # Without its answer, the answer itself may still come: sent as late as the
+        # split timeout allows a responder, then delayed as long as the medium may
+        # delay a packet (the split timeout again). With it, only a copy may come.
+        hold = 2 * self.split_timeout if reason in _UNANSWERED else self._answered_hold()
         event = TransactionFailed(transaction.tid, reason, rcode, detail, unknown)
         self._end(transaction, event, now, hold)
 
