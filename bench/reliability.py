@@ -58,8 +58,11 @@ def fill(host: BusHost, node: int) -> None:
     for first in range(0, QUADLETS, step):
         count = min(step, QUADLETS - first)
         data = b"".join(value_at(q).to_bytes(4, "big") for q in range(first, first + count))
-        while not isinstance(host.wait(host.start_write_block(node, 4 * first, data)), WriteCompleted):
-            pass  # writes of the same data are idempotent
+        landed = False
+        while not landed:  # writes of the same data are idempotent
+            landed = isinstance(
+                host.wait(host.start_write_block(node, 4 * first, data)), WriteCompleted
+            )
 
 
 def measure(
@@ -108,31 +111,35 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     )
     config = BusConfig(f"reliability{int(time.time() * 1000) % 10**9}")
     rng = random.Random(args.seed)
-    totals = {mode: {"counts": Counter(), "seconds": 0.0, "wrong_examples": []} for mode in MODES}
-    with tempfile.TemporaryDirectory() as root:
-        with LaunchedBus(config, 1, root=Path(root), node_arguments=node_arguments) as bus:
-            bus.wait_members()
-            host_faults = FaultConfig(*faults, delay_seconds=args.delay_time, seed=args.seed + 1)
-            with BusHost(
-                config,
-                timing=TIMING,
-                faults=host_faults,
-                ack_timeout=args.ack_timeout,
-                split_timeout=args.split_timeout,
-            ) as host:
-                ((node, _),) = host.nodes()
-                fill(host, node)
-                done = 0
-                while done < args.reads:
-                    chunk = min(args.chunk, args.reads - done)
-                    for mode in MODES:
-                        host.requester.duplicate_window = None if mode == "held" else 0.0
-                        result = measure(host, node, chunk, args.outstanding, rng)
-                        total = totals[mode]
-                        total["counts"].update(result["counts"])
-                        total["seconds"] += result["seconds"]
-                        total["wrong_examples"] += result["wrong_examples"]
-                    done += chunk
+    totals: dict[str, dict[str, Any]] = {
+        mode: {"counts": Counter(), "seconds": 0.0, "wrong_examples": []} for mode in MODES
+    }
+    host_faults = FaultConfig(*faults, delay_seconds=args.delay_time, seed=args.seed + 1)
+    with (
+        tempfile.TemporaryDirectory() as root,
+        LaunchedBus(config, 1, root=Path(root), node_arguments=node_arguments) as bus,
+    ):
+        bus.wait_members()
+        with BusHost(
+            config,
+            timing=TIMING,
+            faults=host_faults,
+            ack_timeout=args.ack_timeout,
+            split_timeout=args.split_timeout,
+        ) as host:
+            ((node, _),) = host.nodes()
+            fill(host, node)
+            done = 0
+            while done < args.reads:
+                chunk = min(args.chunk, args.reads - done)
+                for mode in MODES:
+                    host.requester.duplicate_window = None if mode == "held" else 0.0
+                    result = measure(host, node, chunk, args.outstanding, rng)
+                    total = totals[mode]
+                    total["counts"].update(result["counts"])
+                    total["seconds"] += result["seconds"]
+                    total["wrong_examples"] += result["wrong_examples"]
+                done += chunk
     for total in totals.values():
         total["counts"] = dict(total["counts"])
         total["reads_per_second"] = round(args.reads / total["seconds"], 1)
@@ -155,7 +162,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
 def report(results: dict[str, Any]) -> None:
     print(
-        f"{results['reads_per_mode']} quadlet reads per mode, {results['outstanding']} outstanding, "
+        f"{results['reads_per_mode']} quadlet reads per mode, "
+        f"{results['outstanding']} outstanding, "
         f"loss {results['loss']}, duplicate {results['duplicate']}, delay {results['delay']} "
         f"({results['delay_time'] * 1000:g} ms); ack timeout {results['ack_timeout']} s, "
         f"split timeout {results['split_timeout']} s"
@@ -165,9 +173,7 @@ def report(results: dict[str, Any]) -> None:
         counts = dict(total["counts"])
         ok, wrong, hang = (counts.pop(k, 0) for k in ("ok", "wrong_data", "hang"))
         failures = ", ".join(f"{k} {v}" for k, v in sorted(counts.items())) or "none"
-        print(
-            f"{mode:<14} {ok:>7} {wrong:>6} {hang:>5} {total['reads_per_second']:>8}  {failures}"
-        )
+        print(f"{mode:<14} {ok:>7} {wrong:>6} {hang:>5} {total['reads_per_second']:>8}  {failures}")
         for quadlet, got in total["wrong_examples"]:
             print(f"    quadlet {quadlet} read {got:#010x}, holds {value_at(quadlet):#010x}")
     print(f"held / answered-free reads per second: {results['held_rate_over_answered_free']}")
