@@ -101,9 +101,9 @@ class Requester:
         self.busy_retry_delay = busy_retry_delay
         self.retry_protocol = retry_protocol
         #: How long a label stays out of use after its transaction got its answer,
-        #: for a duplicate of that answer to pass; ``None``: the split timeout. A
-        #: transaction that ended without its answer holds its label for the split
-        #: timeout whatever this says.
+        #: for a copy of that answer to pass; ``None``: the split timeout; 0 for a
+        #: medium that never duplicates. A transaction that ended without its
+        #: answer holds its label for twice the split timeout whatever this says.
         self.duplicate_window = duplicate_window
         self._labels = LabelPool()
         #: Destination physical ID -> transactions waiting for a free label, in order.
