@@ -91,6 +91,9 @@ class BusHost:
             split_timeout=split_timeout,
             ack_timeout=ack_timeout,
             max_busy_retries=max_busy_retries,
+            # Loopback multicast copies no frame unless this host is told to: only
+            # then hold labels after an answer for a copy to pass (docs/engine.md).
+            duplicate_window=None if faults is not None and faults.duplicate else 0.0,
         )
         self.link = RequesterLink(self.requester, self.station.send, self.station)
         self.link.on_reset = self._on_reset
