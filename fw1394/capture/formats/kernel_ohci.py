@@ -120,8 +120,8 @@ def _packet(match: re.Match[str], time_ns: int, state: OhciState) -> BusRecord:
     layout = LAYOUTS[tcode]
     # Fields the line does not print stay 0; the layout places the ones it does.
     fields = dict.fromkeys(layout.header.names, 0)
-    fields |= {"destination_id": destination, "tlabel": int(match["tl"], 16), "tcode": tcode}
-    fields["source_id"] = source
+    fields |= {"destination_id": destination, "source_id": source, "tcode": tcode}
+    fields["tlabel"] = int(match["tl"], 16)
     if match["addr"]:
         fields["offset"] = int(match["addr"], 16)
     specific = (match["specific"] or "").strip()
