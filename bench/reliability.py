@@ -36,9 +36,9 @@ from pathlib import Path
 from typing import Any
 
 from fw1394.engine import ReadCompleted, TransactionFailed, WriteCompleted
+from fw1394.transport.bus_host import MAX_BLOCK_WRITE, BusHost
 from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig
-from fw1394.transport.host import MAX_BLOCK_WRITE, BusHost
 from fw1394.transport.launch import LaunchedBus
 from fw1394.transport.membership import Timing
 

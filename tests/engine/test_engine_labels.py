@@ -18,6 +18,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from fw1394.boards.memory.board import MemorySpace
 from fw1394.engine import (
     IEEE1394_NODE,
     THESIS_FPGA,
@@ -31,9 +32,8 @@ from fw1394.engine import (
     UnexpectedResponse,
     WriteCompleted,
 )
-from fw1394.node.memory import MemorySpace
 from fw1394.packets import AckCode, AsyncPacket, ExtendedTCode, QuadletReadResponse, Request
-from fw1394.transport.host import TransactionError
+from fw1394.transport.bus_host import TransactionError
 
 HOST, NODE = 0xFFC1, 0xFFC0
 QUADLETS = 1024
@@ -304,7 +304,7 @@ def test_a_bus_reset_frees_held_labels_and_fails_waiting_transactions_unsent() -
     requester.handle_timer(SPLIT)  # every read times out; all 64 labels are held
     assert len(requester.events()) == 64
     assert requester.queued == 1
-    requester.bus_reset(1)
+    requester.bus_reset(generation=1)
     (failed,) = requester.events()
     # Never sent, so certainly not performed.
     assert failed == TransactionFailed(

@@ -13,12 +13,12 @@ from collections import Counter, deque
 from pathlib import Path
 
 import pytest
-from test_bus_support import bus_name, wait_until_gone
+from bus_support import bus_name, wait_until_gone
 
 from fw1394.engine import ReadCompleted, TransactionFailed, WriteCompleted
+from fw1394.transport.bus_host import MAX_BLOCK_WRITE, BusHost
 from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig
-from fw1394.transport.host import MAX_BLOCK_WRITE, BusHost
 from fw1394.transport.launch import LaunchedBus
 from fw1394.transport.membership import Timing
 
