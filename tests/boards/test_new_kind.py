@@ -7,8 +7,6 @@ defects) and the node process's board factory pick it up from the registry.
 
 from __future__ import annotations
 
-import argparse
-
 import pytest
 
 from fw1394.boards.registry import BOARDS, BoardKind, check_defects, known_defects
@@ -136,9 +134,9 @@ def test_without_its_registry_line_the_kind_does_not_exist() -> None:
 
 @pytest.mark.usefixtures("registered")
 def test_the_node_process_builds_the_new_board() -> None:
-    from fw1394.cli.bus import _make_space
+    from fw1394.node.description import NodeDescription
+    from fw1394.node.run import _board
 
-    args = argparse.Namespace(board=KIND, board_id=3, defect=["forgets-writes"], memory_size=0)
-    space = _make_space(args)
+    space = _board(NodeDescription(board=KIND, board_id=3, defects=frozenset({"forgets-writes"})))
     assert isinstance(space, ScratchBoard)
     assert space.board_id == 3 and space.defects == {"forgets-writes"}
