@@ -258,6 +258,7 @@ def test_a_response_too_large_for_a_datagram_is_dropped_not_fatal(tmp_path: Path
                 port.start_read_block(0, 0, MAX_BLOCK_READ + 1)
             assert len(port.read_block(0, 0, MAX_BLOCK_READ)) == MAX_BLOCK_READ
             # Past the host's guard, as a fuzzer or foreign host would send it.
+            assert port.phy_id is not None
             me = LOCAL_BUS << 6 | port.phy_id
             request = BlockReadRequest(
                 destination_id=LOCAL_BUS << 6, tlabel=5, source_id=me, offset=0, data_length=65535
