@@ -6,11 +6,11 @@ import json
 import os
 import signal
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from bus_support import PREFIX, bus_name, start_node, stop, wait_until_gone
+from bus_support import PREFIX, LaunchBus, bus_name, start_node, stop, wait_until_gone
+from polling import wait_until
 
 from fw1394.capture.formats.bus_tap import BusTap
 from fw1394.capture.formats.record import RecordType
@@ -30,12 +30,8 @@ FAST_ARGS = ("--heartbeat", "0.1", "--lease", "2.0")
 
 
 @pytest.fixture
-def bus3(tmp_path: Path) -> Iterator[LaunchedBus]:
-    config = BusConfig(bus_name("three"))
-    with LaunchedBus(config, 3, root=tmp_path, node_arguments=FAST_ARGS) as bus:
-        bus.wait_members()
-        yield bus
-    assert wait_until_gone(config.name) == []
+def bus3(launch_bus: LaunchBus) -> LaunchedBus:
+    return launch_bus(3, tag="three", node_arguments=FAST_ARGS)
 
 
 def host(bus: LaunchedBus, ack_timeout: float = 1.0) -> BusPort:
@@ -60,8 +56,10 @@ def test_read_and_write_every_node(bus3: LaunchedBus) -> None:
             assert port.read_quadlet(phy, 0x10) == 0xC0DE0000 + phy
             assert port.read_block(phy, 0x100, 2048) == bytes(range(256)) * 8
         port.write_quadlet(63, 0x20, 0xB0AD)  # broadcast: nobody acks, everyone stores
-        time.sleep(0.05)
-        assert [port.read_quadlet(phy, 0x20) for phy, _ in nodes] == [0xB0AD] * 3
+        wait_until(
+            lambda: [port.read_quadlet(phy, 0x20) for phy, _ in nodes] == [0xB0AD] * 3,
+            timeout=5,
+        )
         with pytest.raises(TransactionError, match="address_error"):
             port.read_quadlet(0, 0x1_0000_0000)
         assert port.lock(1, 0x10, 2, (0xC0DE0001).to_bytes(4, "big"), bytes(4)) == bytes.fromhex(
@@ -124,26 +122,24 @@ def test_a_killed_node_resets_the_bus_and_can_come_back(bus3: LaunchedBus) -> No
             stop(comeback)
 
 
-def test_five_percent_loss_never_hangs_a_transaction(tmp_path: Path) -> None:
-    config = BusConfig(bus_name("lossy"))
+def test_five_percent_loss_never_hangs_a_transaction(launch_bus: LaunchBus) -> None:
     lossy = (*FAST_ARGS, "--loss", "0.05", "--duplicate", "0.02", "--delay", "0.05")
-    with LaunchedBus(config, 2, root=tmp_path, node_arguments=lossy) as bus:
-        bus.wait_members()
-        faults = FaultConfig(loss=0.05, seed=1)
-        with BusPort(
-            config, timing=FAST_TIMING, faults=faults, ack_timeout=0.2, split_timeout=0.2
-        ) as port:
-            port.nodes()
-            outcomes: dict[str, int] = {}
-            started = time.monotonic()
-            for i in range(300):
-                tid = port.start_read_quadlet(i % 2, 0)
-                event = port.wait(tid)
-                name = "ok" if isinstance(event, ReadCompleted) else "?"
-                if isinstance(event, TransactionFailed):
-                    name = str(event.reason)
-                outcomes[name] = outcomes.get(name, 0) + 1
-            elapsed = time.monotonic() - started
+    bus = launch_bus(2, tag="lossy", node_arguments=lossy)
+    faults = FaultConfig(loss=0.05, seed=1)
+    with BusPort(
+        bus.config, timing=FAST_TIMING, faults=faults, ack_timeout=0.2, split_timeout=0.2
+    ) as port:
+        port.nodes()
+        outcomes: dict[str, int] = {}
+        started = time.monotonic()
+        for i in range(300):
+            tid = port.start_read_quadlet(i % 2, 0)
+            event = port.wait(tid)
+            name = "ok" if isinstance(event, ReadCompleted) else "?"
+            if isinstance(event, TransactionFailed):
+                name = str(event.reason)
+            outcomes[name] = outcomes.get(name, 0) + 1
+        elapsed = time.monotonic() - started
     assert outcomes.get("ok", 0) > 250, outcomes
     assert sum(outcomes.values()) == 300
     assert elapsed < 30, (elapsed, outcomes)
