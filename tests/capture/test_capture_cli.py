@@ -207,6 +207,8 @@ def test_wireshark_dissector_is_generated(capsys: pytest.CaptureFixture[str]) ->
         assert needle in lua
 
 
+@pytest.mark.process
+@pytest.mark.slow
 def test_capture_of_a_live_virtual_bus(tmp_path: Path, unique_bus_name: str) -> None:
     """The real tap on a real (loopback) virtual bus, driven by `fw1394 read`."""
     import subprocess

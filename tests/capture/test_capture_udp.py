@@ -107,6 +107,7 @@ def packet_socket_on(pid: int, interface: str) -> bool:
 
 
 @pytest.mark.skipif(not _can_sniff(), reason="live UDP capture needs CAP_NET_RAW (root)")
+@pytest.mark.process
 def test_live_udp_capture_closes_cleanly_on_ctrl_c(tmp_path: Path) -> None:
     port = 30000 + os.getpid() % 20000
     path = tmp_path / "live.pcapng"

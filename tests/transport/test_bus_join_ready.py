@@ -15,6 +15,7 @@ import sys
 import threading
 import time
 
+import pytest
 from bus_support import bus_name, node_command, stop, wait_until_gone
 from fake_bus import FakeBus, settled
 
@@ -83,6 +84,7 @@ def read_every_node_at_once(port: BusPort, count: int) -> dict[int, str]:
     return {phy: outcome(port.wait(tid)) for phy, tid in tids.items()}
 
 
+@pytest.mark.process
 def test_nodes_answer_the_host_the_moment_it_is_ready(
     node_processes: list[subprocess.Popen[bytes]],
 ) -> None:
@@ -100,6 +102,7 @@ def test_nodes_answer_the_host_the_moment_it_is_ready(
     assert wait_until_gone(name) == []
 
 
+@pytest.mark.process
 def test_a_host_joins_beside_an_active_host_and_reads_at_once(
     node_processes: list[subprocess.Popen[bytes]],
 ) -> None:
@@ -127,6 +130,7 @@ def test_a_host_joins_beside_an_active_host_and_reads_at_once(
         assert set(outcomes) <= {"ok", "bus_reset"} and "ok" in outcomes, outcomes
 
 
+@pytest.mark.process
 def test_a_host_joins_beside_an_idle_host(
     node_processes: list[subprocess.Popen[bytes]],
 ) -> None:
@@ -144,6 +148,7 @@ def test_a_host_joins_beside_an_idle_host(
         assert time.monotonic() - started < 3 * TIMING.lease
 
 
+@pytest.mark.process
 def test_a_host_left_idle_reads_again_at_once(
     node_processes: list[subprocess.Popen[bytes]],
 ) -> None:

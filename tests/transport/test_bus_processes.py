@@ -42,6 +42,7 @@ def port_on(config: BusConfig, ack_timeout: float = 1.0) -> BusPort:
     return BusPort(config, timing=FAST_TIMING, ack_timeout=ack_timeout, split_timeout=1.0)
 
 
+@pytest.mark.process
 def test_read_and_write_every_node(bus3: LaunchedBus) -> None:
     with host(bus3) as port:
         nodes = port.nodes()
@@ -67,6 +68,7 @@ def test_read_and_write_every_node(bus3: LaunchedBus) -> None:
         )
 
 
+@pytest.mark.process
 def test_tap_sees_resets_self_ids_packets_and_acks(bus3: LaunchedBus) -> None:
     with BusTap(bus3.config.name, ack_wait=0.5) as tap, host(bus3) as port:
         port.nodes()
@@ -95,6 +97,7 @@ def test_tap_sees_resets_self_ids_packets_and_acks(bus3: LaunchedBus) -> None:
     assert stamps == sorted(stamps)
 
 
+@pytest.mark.process
 def test_a_killed_node_resets_the_bus_and_can_come_back(bus3: LaunchedBus) -> None:
     victim = bus3.records()[1].pid
     with host(bus3, ack_timeout=10.0) as port:
@@ -122,6 +125,8 @@ def test_a_killed_node_resets_the_bus_and_can_come_back(bus3: LaunchedBus) -> No
             stop(comeback)
 
 
+@pytest.mark.process
+@pytest.mark.slow
 def test_five_percent_loss_never_hangs_a_transaction(launch_bus: LaunchBus) -> None:
     lossy = (*FAST_ARGS, "--loss", "0.05", "--duplicate", "0.02", "--delay", "0.05")
     bus = launch_bus(2, tag="lossy", node_arguments=lossy)
@@ -146,6 +151,7 @@ def test_five_percent_loss_never_hangs_a_transaction(launch_bus: LaunchBus) -> N
     assert set(outcomes) <= {"ok", "no_ack", "response_timeout", "bus_reset"}, outcomes
 
 
+@pytest.mark.process
 def test_two_buses_side_by_side(tmp_path: Path) -> None:
     first, second = BusConfig(bus_name("left")), BusConfig(bus_name("right"))
     with (
@@ -166,6 +172,7 @@ def test_two_buses_side_by_side(tmp_path: Path) -> None:
             assert right.read_quadlet(0, 0) == 0
 
 
+@pytest.mark.process
 def test_cli_bus_lifecycle(capsys: pytest.CaptureFixture[str]) -> None:
     name = bus_name("cli")
     try:
@@ -218,10 +225,12 @@ def test_cli_rejects_bad_input_without_tracebacks(capsys: pytest.CaptureFixture[
     assert "outside 1..65448" in err and "at most 65456" in err
 
 
+@pytest.mark.process
 def test_no_process_is_left_behind() -> None:
     assert wait_until_gone(PREFIX) == []
 
 
+@pytest.mark.process
 def test_a_response_too_large_for_a_datagram_is_dropped_not_fatal(tmp_path: Path) -> None:
     """A 65,535-byte block read: the board answers, no datagram can carry it.
 
