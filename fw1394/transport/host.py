@@ -333,6 +333,7 @@ class BusHost:
             tlabel: int = getattr(packet, "tlabel", 0)
             ack = ACK_PAYLOAD.pack(_ACK_BYTES[code], tlabel, 0, header.sequence)
             self.station.send(_ACK, header.sender_phy, ack)
+        self._flush_requests()  # the end may have freed a label a waiting request needed
 
     def _apply_changes(self) -> None:
         for change in self.station.changes():
