@@ -32,6 +32,7 @@ from collections.abc import Callable, Iterable
 from fw1394.engine import Requester, Responder
 from fw1394.engine.responder import Reply, decode_received
 from fw1394.packets import AsyncPacket
+from fw1394.packets.ack import ack_code
 from fw1394.packets.fast import decode_packet, encode_packet
 from fw1394.packets.nodeid import BROADCAST_ID, node_id, phy_of
 from fw1394.transport.membership import BusReset, Change, Excluded, Refused
@@ -237,7 +238,7 @@ class RequesterLink(LinkLayer):
         # Unpacked in place rather than through parse_ack's AckPayload: every
         # transaction has one.
         byte, tlabel, _, _ = _unpack_ack(payload)
-        self.requester.receive_ack(node_id(sender), tlabel, byte >> 4, now)
+        self.requester.receive_ack(node_id(sender), tlabel, ack_code(byte), now)
         if len(payload) > ACK_SIZE:
             # The response of the same tenure, acked like a split one (the link acks
             # whatever response it takes) under the ack frame's sequence number.
@@ -252,6 +253,7 @@ class RequesterLink(LinkLayer):
         if code is not None:
             tlabel: int = getattr(packet, "tlabel", 0)
             self.send(ACK, sender, _pack_ack(ACK_BYTES[code], tlabel, 0, sequence))
+        self.flush()  # the end may have freed a label a waiting request needs
 
     def flush(self) -> None:
         """Send every packet the requester has queued."""
