@@ -13,6 +13,7 @@ import importlib
 import pkgutil
 import sys
 from collections.abc import Sequence
+from typing import NoReturn
 
 import fw1394
 from fw1394.cli.common import CliError, fail
@@ -27,8 +28,20 @@ Run `fw1394 COMMAND --help` for each command's options and examples.
 """
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """A parser whose errors are one line on stderr (exit 2), not a usage block.
+
+    Subparsers are made of the parser's own class, so every subcommand and
+    sub-subcommand reports its errors the same way.
+    """
+
+    def error(self, message: str) -> NoReturn:
+        text = " ".join(message.split())
+        self.exit(2, f"{self.prog}: error: {text} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="fw1394",
         description=DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter,
