@@ -208,7 +208,7 @@ class Dissection:
                 | np.isin(destination & 0x3F, ids) & (destination >= 0)
                 | np.isin(batch.sender, ids)
             )
-        if o.display_filter is not None and keep.any():
+        if o.display_filter is not None and o.view == "packets" and keep.any():
             columns = packet_columns(batch, decoded, self.origin_ns or 0)
             keep &= o.display_filter(columns, len(batch))
         return keep
