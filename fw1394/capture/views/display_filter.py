@@ -118,7 +118,8 @@ class Field:
     name: str  # canonical short name
 
     def text(self) -> str:
-        return self.name
+        # A field named like a value (record_type == ack) is written in full to stay a field.
+        return PREFIX + self.name if self.name in _VALUE_WORDS else self.name
 
 
 @dataclass(frozen=True)
@@ -353,6 +354,11 @@ def _compare(
                 raise parser.error(_unknown_field(), token)
         raise parser.error("compare a field, not two values", left_token)
     if isinstance(left, Field) and isinstance(right, Field):
+        # A bare word that names a value of the other side's field is that value.
+        if right_token.text in _value_names(left.name):
+            return Compare(op, left, _resolve(right_token, left, parser))
+        if left_token.text in _value_names(right.name):
+            return Compare(op, _resolve(left_token, right, parser), right)
         if FIELDS[left.name].duration != FIELDS[right.name].duration:
             raise parser.error("a time cannot be compared with a number", right_token)
         return Compare(op, left, right)
@@ -361,6 +367,16 @@ def _compare(
         return Compare(op, _resolve(left.token, right, parser), right)
     assert isinstance(right, _Pending)
     return Compare(op, left, _resolve(right.token, left, parser))
+
+
+def _value_names(name: str) -> dict[str, int]:
+    enum = FIELDS[name].enum
+    if enum is None:
+        return {}
+    return _ACK_NAMES if enum is AckCode else {m.name: int(m) for m in enum}
+
+
+_VALUE_WORDS = frozenset(word for name in FIELDS for word in _value_names(name))
 
 
 def _unknown_field() -> str:
@@ -374,10 +390,9 @@ def _resolve(token: _Token, field: Field, parser: _Parser) -> Literal:
     info = FIELDS[field.name]
     text = token.text
     if token.kind == "word":
-        enum = info.enum
-        if enum is None:
+        if info.enum is None:
             raise parser.error(f"unknown field or value (is {field.name} a number?)", token)
-        names = _ACK_NAMES if enum is AckCode else {m.name: int(m) for m in enum}
+        names = _value_names(field.name)
         if text not in names:
             known = ", ".join(names)
             raise parser.error(f"not a {field.name} name (known: {known})", token)
