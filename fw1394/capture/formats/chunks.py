@@ -76,8 +76,12 @@ class ChunkSource:
 
 
 def read_into(stream: BinaryIO, target: memoryview) -> int:
-    """Fill ``target`` from ``stream`` (fewer bytes only at the end of the stream)."""
-    readinto = getattr(stream, "readinto", None)
+    """Read into ``target`` from ``stream``: fewer bytes at its end, or what a pipe has now.
+
+    One read per call (``readinto1``), so a live pipe is dissected as it arrives
+    rather than after megabytes have accumulated.
+    """
+    readinto = getattr(stream, "readinto1", None) or getattr(stream, "readinto", None)
     if readinto is not None:
         got = readinto(target)
         return int(got or 0)

@@ -137,7 +137,8 @@ class _Prefixed(io.RawIOBase):
             target[:size] = self._head[:size]
             self._head = self._head[size:]
             return size
-        data = self._rest.read(len(target))
+        read1 = getattr(self._rest, "read1", self._rest.read)
+        data = read1(len(target))
         target[: len(data)] = data
         return len(data)
 
