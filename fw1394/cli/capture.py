@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import io
 import os
 import signal
 import sys
 import threading
 from collections.abc import Callable
 from types import FrameType
-from typing import TYPE_CHECKING, BinaryIO
+from typing import TYPE_CHECKING, Any, BinaryIO
 
 from fw1394.cli.common import CliError
 
@@ -88,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
     source = _open_tap(args.bus or "default") if not args.udp else None
     try:
         stream: BinaryIO = (
-            sys.stdout.buffer if to_stdout else open(args.write, "wb")  # noqa: SIM115
+            _KeepOpen(sys.stdout.buffer) if to_stdout else open(args.write, "wb")  # noqa: SIM115
         )
     except OSError as error:
         if source is not None:
@@ -132,6 +133,25 @@ def run(args: argparse.Namespace) -> int:
     where = "standard output" if to_stdout else args.write
     print(f"fw1394: {count} packets written to {where}", file=sys.stderr)
     return 0
+
+
+class _KeepOpen(io.BufferedIOBase):
+    """Standard output for the trace writer: closing it flushes, stdout stays open."""
+
+    def __init__(self, stream: BinaryIO) -> None:
+        self._stream = stream
+
+    def writable(self) -> bool:
+        return True
+
+    def write(self, data: Any) -> int:
+        return self._stream.write(data)
+
+    def flush(self) -> None:
+        self._stream.flush()
+
+    def close(self) -> None:
+        self._stream.flush()
 
 
 def _silence_stdout() -> None:

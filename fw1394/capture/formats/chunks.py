@@ -76,12 +76,15 @@ class ChunkSource:
 
 
 def read_into(stream: BinaryIO, target: memoryview) -> int:
-    """Read into ``target`` from ``stream``: fewer bytes at its end, or what a pipe has now.
+    """Fill ``target`` from ``stream`` (fewer bytes only at the end of the stream).
 
-    One read per call (``readinto1``), so a live pipe is dissected as it arrives
-    rather than after megabytes have accumulated.
+    A pipe is read one read at a time (``readinto1``), so a live capture is
+    dissected as it arrives rather than after megabytes have accumulated.
     """
-    readinto = getattr(stream, "readinto1", None) or getattr(stream, "readinto", None)
+    readinto = getattr(stream, "readinto", None)
+    seekable = getattr(stream, "seekable", None)
+    if seekable is not None and not seekable():
+        readinto = getattr(stream, "readinto1", readinto)
     if readinto is not None:
         got = readinto(target)
         return int(got or 0)
