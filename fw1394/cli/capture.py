@@ -10,7 +10,7 @@ import sys
 import threading
 from collections.abc import Callable
 from types import FrameType
-from typing import TYPE_CHECKING, Any, BinaryIO
+from typing import TYPE_CHECKING, Any, BinaryIO, cast
 
 from fw1394.cli.common import CliError
 
@@ -58,9 +58,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--interface", default="lo", help="network interface for --udp (default lo)"
     )
     parser.add_argument("--duration", type=float, help="stop after this many seconds")
-    parser.add_argument(
-        "-c", "--count", type=int, metavar="COUNT", help="stop after COUNT packets"
-    )
+    parser.add_argument("-c", "--count", type=int, metavar="COUNT", help="stop after COUNT packets")
     parser.add_argument("-q", "--quiet", action="store_true", help="no line per packet")
     parser.add_argument("--pcap", action="store_true", help="classic pcap instead of pcapng")
     parser.set_defaults(handler=run)
@@ -88,9 +86,7 @@ def run(args: argparse.Namespace) -> int:
     linktype = LINKTYPE_ETHERNET if args.udp else LINKTYPE_FW1394
     source = _open_tap(args.bus or "default") if not args.udp else None
     try:
-        stream: BinaryIO = (
-            _KeepOpen(sys.stdout.buffer) if to_stdout else open(args.write, "wb")  # noqa: SIM115
-        )
+        stream = cast(BinaryIO, _KeepOpen(sys.stdout.buffer)) if to_stdout else _create(args.write)
     except OSError as error:
         if source is not None:
             source.close()
@@ -133,6 +129,10 @@ def run(args: argparse.Namespace) -> int:
     where = "standard output" if to_stdout else args.write
     print(f"fw1394: {count} packets written to {where}", file=sys.stderr)
     return 0
+
+
+def _create(path: str) -> BinaryIO:
+    return open(path, "wb")  # noqa: SIM115 - the writer closes it
 
 
 class _KeepOpen(io.BufferedIOBase):

@@ -170,8 +170,8 @@ def tcode_values(texts: list[str]) -> frozenset[int]:
 def run(args: argparse.Namespace) -> int:
     try:
         from fw1394.capture.formats import sources
-        from fw1394.capture.views.dissection import Dissection, Options
         from fw1394.capture.views.display_filter import DisplayFilter, FilterError
+        from fw1394.capture.views.dissection import Dissection, Options
         from fw1394.capture.views.trace_plots import (
             PlotError,
             plot_latency,
@@ -306,4 +306,3 @@ def _nothing_read(name: str, fmt: str, port: int, ports: PortTally) -> int:
         f"{name}: nothing recognised as {_FORMAT_NAMES.get(fmt, fmt)} (0 records); "
         "check the file, or name its format with --format"
     )
-

@@ -51,7 +51,9 @@ def test_verbose_packet_view_lists_every_field(
 
 
 def test_transaction_view_json_and_filters(trace: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    status, out, _ = dissect(capsys, str(trace), "--transactions", "--json", "--node", "2", "--since", "0.01")
+    status, out, _ = dissect(
+        capsys, str(trace), "--transactions", "--json", "--node", "2", "--since", "0.01"
+    )
     objects = [json.loads(line) for line in out.splitlines()]
     assert status == 0 and objects
     assert all(obj["responder"] & 0x3F == 2 or obj["requester"] & 0x3F == 2 for obj in objects)

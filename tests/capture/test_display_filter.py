@@ -12,10 +12,10 @@ from hypothesis import strategies as st
 
 from fw1394.capture.analysis.sample_traces import write_eth1394_sample
 from fw1394.capture.analysis.traffic_sim import Scenario, simulate
+from fw1394.capture.formats.record import BusRecord, RecordType
 from fw1394.capture.formats.trace_writer import write_trace
 from fw1394.capture.views import display_filter as df
 from fw1394.cli.main import main
-from fw1394.capture.formats.record import BusRecord, RecordType
 from fw1394.packets import AckCode, QuadletWriteRequest, RCode, TCode, WriteResponse, encode
 
 FIELD_NAMES = sorted(df.FIELDS)
@@ -52,7 +52,9 @@ def comparisons(draw: st.DrawFn) -> df.Node:
     return df.Compare(op, df.Field(name), other)
 
 
-leaves = st.one_of(comparisons(), st.builds(df.Present, st.builds(df.Field, st.sampled_from(FIELD_NAMES))))
+leaves = st.one_of(
+    comparisons(), st.builds(df.Present, st.builds(df.Field, st.sampled_from(FIELD_NAMES)))
+)
 trees = st.recursive(
     leaves,
     lambda inner: st.one_of(
@@ -107,8 +109,14 @@ def test_text_parses_back_to_the_same_tree(tree: df.Node) -> None:
         ("not (src eq 0xffc0) or dst_id", "!(src == 0xffc0) || dst"),
         ("latency >= 1.5ms", "latency >= 1.5ms"),
         # "ack" also names a record type, so it is written in full to stay a field
-        ("tcode == read_quadlet_request || ack == ack_pending", "tcode == read_quadlet_request || fw1394.ack == ack_pending"),
-        ("record_type != ack && fw1394.record_type == bus_reset", "record_type != ack && record_type == bus_reset"),
+        (
+            "tcode == read_quadlet_request || ack == ack_pending",
+            "tcode == read_quadlet_request || fw1394.ack == ack_pending",
+        ),
+        (
+            "record_type != ack && fw1394.record_type == bus_reset",
+            "record_type != ack && record_type == bus_reset",
+        ),
         ("tlabel>=0x3f&&length<8", "tlabel >= 0x3f && data_length < 8"),
     ],
 )
@@ -169,19 +177,45 @@ def simulated(tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("filter") / "sim.pcapng"
     scenario = Scenario(lost_every=97, busy_every=89, corrupt_every=61, unsolicited_every=113)
     records = list(simulate(3000, scenario))
-    write_trace(str(path), records + failed_writes(records[-1].timestamp_ns + 1000, records[-1].generation))
+    write_trace(
+        str(path), records + failed_writes(records[-1].timestamp_ns + 1000, records[-1].generation)
+    )
     return path
 
 
 def failed_writes(start_ns: int, generation: int) -> list[BusRecord]:
     """Quadlet writes answered with error rcodes (the simulation has none)."""
     records = []
-    for index, rcode in enumerate((RCode.resp_address_error, RCode.resp_complete, RCode.resp_type_error)):
-        request = QuadletWriteRequest(destination_id=0xFFC1, source_id=0xFFC4, tlabel=50 + index, offset=0x10)
-        response = WriteResponse(destination_id=0xFFC4, source_id=0xFFC1, tlabel=50 + index, rcode=rcode)
+    for index, rcode in enumerate(
+        (RCode.resp_address_error, RCode.resp_complete, RCode.resp_type_error)
+    ):
+        request = QuadletWriteRequest(
+            destination_id=0xFFC1, source_id=0xFFC4, tlabel=50 + index, offset=0x10
+        )
+        response = WriteResponse(
+            destination_id=0xFFC4, source_id=0xFFC1, tlabel=50 + index, rcode=rcode
+        )
         at = start_ns + 10_000 * index
-        records.append(BusRecord(at, RecordType.async_packet, encode(request), generation, sender=4, ack=AckCode.ack_pending))
-        records.append(BusRecord(at + 3_000, RecordType.async_packet, encode(response), generation, sender=1, ack=AckCode.ack_complete))
+        records.append(
+            BusRecord(
+                at,
+                RecordType.async_packet,
+                encode(request),
+                generation,
+                sender=4,
+                ack=AckCode.ack_pending,
+            )
+        )
+        records.append(
+            BusRecord(
+                at + 3_000,
+                RecordType.async_packet,
+                encode(response),
+                generation,
+                sender=1,
+                ack=AckCode.ack_complete,
+            )
+        )
     return records
 
 
@@ -205,13 +239,31 @@ def get(obj: dict[str, object], key: str) -> int:
 
 
 PACKET_FILTERS = [
-    ("tcode == read_block_response && data_length > 64", lambda o: get(o, "tcode") == 7 and get(o, "data_length") > 64),
-    ("src == 0xffc4 && !(tcode == 1)", lambda o: get(o, "source_id") == 0xFFC4 and get(o, "tcode") != 1),
-    ("rcode == resp_complete && tlabel != 5", lambda o: get(o, "rcode") == 0 and get(o, "tlabel") != 5),
+    (
+        "tcode == read_block_response && data_length > 64",
+        lambda o: get(o, "tcode") == 7 and get(o, "data_length") > 64,
+    ),
+    (
+        "src == 0xffc4 && !(tcode == 1)",
+        lambda o: get(o, "source_id") == 0xFFC4 and get(o, "tcode") != 1,
+    ),
+    (
+        "rcode == resp_complete && tlabel != 5",
+        lambda o: get(o, "rcode") == 0 and get(o, "tlabel") != 5,
+    ),
     ("ack == ack_busy_X || ack == ack_pending", lambda o: get(o, "ack") in (4, 2)),
-    ("(tlabel < 3 or tlabel > 60) and dst == 0xffc0", lambda o: (0 <= get(o, "tlabel") < 3 or get(o, "tlabel") > 60) and get(o, "destination_id") == 0xFFC0),
-    ("offset >= 0xfffff0000400 && offset < 0xfffff0000800", lambda o: 0xFFFFF0000400 <= get(o, "offset") < 0xFFFFF0000800),
-]  # fmt: skip
+    (
+        "(tlabel < 3 or tlabel > 60) and dst == 0xffc0",
+        lambda o: (
+            (0 <= get(o, "tlabel") < 3 or get(o, "tlabel") > 60)
+            and get(o, "destination_id") == 0xFFC0
+        ),
+    ),
+    (
+        "offset >= 0xfffff0000400 && offset < 0xfffff0000800",
+        lambda o: 0xFFFFF0000400 <= get(o, "offset") < 0xFFFFF0000800,
+    ),
+]
 
 
 @pytest.mark.parametrize(("expression", "by_hand"), PACKET_FILTERS)
@@ -226,11 +278,20 @@ def test_packet_filter_equals_filtering_by_hand(
 
 TRANSACTION_FILTERS = [
     ("latency > 20us", lambda o: get(o, "latency_ns") > 20_000),
-    ("tcode == 0 && rcode != 0", lambda o: 0 in (get(o, "tcode"), get(o, "resp_tcode")) and get(o, "rcode") > 0),
+    (
+        "tcode == 0 && rcode != 0",
+        lambda o: 0 in (get(o, "tcode"), get(o, "resp_tcode")) and get(o, "rcode") > 0,
+    ),
     ("!latency || attempts > 1", lambda o: get(o, "latency_ns") < 0 or get(o, "attempts") > 1),
-    ("tcode == read_quadlet_response && src == 0xffc4", lambda o: get(o, "resp_tcode") == 6 and get(o, "requester") == 0xFFC4),
-    ("latency <= 0.019ms && dst != 0xffc1", lambda o: 0 <= get(o, "latency_ns") <= 19_000 and get(o, "responder") not in (-1, 0xFFC1)),
-]  # fmt: skip
+    (
+        "tcode == read_quadlet_response && src == 0xffc4",
+        lambda o: get(o, "resp_tcode") == 6 and get(o, "requester") == 0xFFC4,
+    ),
+    (
+        "latency <= 0.019ms && dst != 0xffc1",
+        lambda o: 0 <= get(o, "latency_ns") <= 19_000 and get(o, "responder") not in (-1, 0xFFC1),
+    ),
+]
 
 
 @pytest.mark.parametrize(("expression", "by_hand"), TRANSACTION_FILTERS)

@@ -1,4 +1,4 @@
-"""tshark-style plumbing of ``dissect`` and ``capture``: pipes, -r, -c, -t, and no silent nothing."""
+"""tshark-style plumbing of ``dissect`` and ``capture``: pipes, -r, -c, -t, no silent nothing."""
 
 from __future__ import annotations
 
@@ -26,7 +26,9 @@ TSHARK = shutil.which("tshark")
 SAMPLE_START_NS = 1_700_000_000_000_000_000
 
 
-def fw1394(*argv: str, stdin: bytes | None = None, timeout: float = 60) -> subprocess.CompletedProcess[bytes]:
+def fw1394(
+    *argv: str, stdin: bytes | None = None, timeout: float = 60
+) -> subprocess.CompletedProcess[bytes]:
     return subprocess.run(
         [sys.executable, "-m", "fw1394.cli.main", *argv],
         input=stdin,
@@ -88,7 +90,9 @@ def test_r_option_and_positional_agree(trace: Path, capsys: pytest.CaptureFixtur
 
 def test_empty_stdin_is_an_error() -> None:
     result = fw1394("dissect", "-", stdin=b"")
-    assert result.returncode == 2 and b"standard input" in result.stderr and b"empty" in result.stderr
+    assert (
+        result.returncode == 2 and b"standard input" in result.stderr and b"empty" in result.stderr
+    )
 
 
 # -- -c ---------------------------------------------------------------------------------------
@@ -103,7 +107,9 @@ def test_count_stops_after_count_rows(trace: Path, capsys: pytest.CaptureFixture
     assert json.loads(stats)["records_read"] == 100
 
 
-def test_count_with_filter_counts_shown_rows(trace: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_count_with_filter_counts_shown_rows(
+    trace: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     _, matching, _ = dissect(capsys, str(trace), "-Y", "tcode == read_block_request")
     _, first, _ = dissect(capsys, str(trace), "-Y", "tcode == read_block_request", "-c", "5")
     assert first.splitlines() == matching.splitlines()[:5] and len(first.splitlines()) == 5
@@ -118,29 +124,39 @@ def test_time_formats(sample: Path, capsys: pytest.CaptureFixture[str]) -> None:
     _, default, _ = dissect(capsys, str(sample))
     _, relative, _ = dissect(capsys, str(sample), "-t", "r")
     assert default == relative
-    assert [time_column(l) for l in relative.splitlines()] == [
+    assert [time_column(line) for line in relative.splitlines()] == [
         f"{i * 0.0001:.9f}" for i in range(6)
     ]
     _, delta, _ = dissect(capsys, str(sample), "-t", "d")
-    assert [time_column(l) for l in delta.splitlines()] == ["0.000000000"] + ["0.000100000"] * 5
+    assert [time_column(line) for line in delta.splitlines()] == ["0.000000000"] + [
+        "0.000100000"
+    ] * 5
     _, shown_delta, _ = dissect(capsys, str(sample), "-t", "dd", "-Y", "frame == 1 || frame == 4")
-    assert [time_column(l) for l in shown_delta.splitlines()] == ["0.000000000", "0.000300000"]
+    assert [time_column(line) for line in shown_delta.splitlines()] == [
+        "0.000000000",
+        "0.000300000",
+    ]
     _, read_delta, _ = dissect(capsys, str(sample), "-t", "d", "-Y", "frame == 1 || frame == 4")
-    assert [time_column(l) for l in read_delta.splitlines()] == ["0.000000000", "0.000100000"]
+    assert [time_column(line) for line in read_delta.splitlines()] == ["0.000000000", "0.000100000"]
     _, epoch, _ = dissect(capsys, str(sample), "-t", "e", "-c", "2")
-    assert [time_column(l) for l in epoch.splitlines()] == [
+    assert [time_column(line) for line in epoch.splitlines()] == [
         "1700000000.000000000", "1700000000.000100000"
     ]  # fmt: skip
     _, utc, _ = dissect(capsys, str(sample), "-t", "ud", "-c", "2")
-    assert [time_column(l) for l in utc.splitlines()] == [
+    assert [time_column(line) for line in utc.splitlines()] == [
         "2023-11-14 22:13:20.000000000", "2023-11-14 22:13:20.000100000"
     ]  # fmt: skip
     _, tx, _ = dissect(capsys, str(sample), "--transactions", "-t", "u")
-    assert [time_column(l) for l in tx.splitlines()][:2] == ["22:13:20.000000000", "22:13:20.000200000"]
+    assert [time_column(line) for line in tx.splitlines()][:2] == [
+        "22:13:20.000000000",
+        "22:13:20.000200000",
+    ]
 
 
 # -- no silent nothing ------------------------------------------------------------------------
-def test_eth1394_on_another_port_says_which(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_eth1394_on_another_port_says_which(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     path = tmp_path / "other-port.pcap"
     write_eth1394_sample(str(path), port=11394)
     status, out, err = dissect(capsys, str(path))

@@ -49,7 +49,9 @@ def test_there_are_many_subcommands() -> None:
 
 
 @pytest.mark.parametrize("words", [w for w, _ in PARSERS], ids=lambda w: " ".join(w) or "fw1394")
-def test_an_unknown_option_is_one_line(words: list[str], capsys: pytest.CaptureFixture[str]) -> None:
+def test_an_unknown_option_is_one_line(
+    words: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
     line = one_line_failure(capsys, [*words, "--no-such-option"])
     prog = " ".join(["fw1394", *words])
     assert line.startswith(f"{prog}: error: ")

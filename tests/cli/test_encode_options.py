@@ -68,7 +68,9 @@ def test_kind_help_lists_every_field_with_its_width(
 
 
 def test_value_names_and_numbers_make_the_same_packet(capsys: pytest.CaptureFixture[str]) -> None:
-    by_name = run(capsys, "encode", "write_response", "--rcode", "resp_address_error", "--tlabel", "5")
+    by_name = run(
+        capsys, "encode", "write_response", "--rcode", "resp_address_error", "--tlabel", "5"
+    )
     by_number = run(capsys, "encode", "write_response", "--rcode", "7", "--tlabel", "5")
     truth = quadlets_hex(encode(WriteResponse(rcode=RCode.resp_address_error, tlabel=5)))
     assert by_name == by_number == (0, truth + "\n", "")

@@ -26,11 +26,12 @@ import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from enum import IntEnum
+from typing import Any
 
 import numpy as np
 
-from fw1394.packets import AckCode, ExtendedTCode, RCode, Retry, Speed, TCode
 from fw1394.capture.formats.record import RecordType
+from fw1394.packets import AckCode, ExtendedTCode, RCode, Retry, Speed, TCode
 
 #: Nanoseconds per duration unit.
 UNITS = {"ns": 1, "us": 1_000, "ms": 1_000_000, "s": 1_000_000_000}
@@ -162,7 +163,7 @@ class Or:
 
 
 Node = Compare | Present | Not | And | Or
-RELOPS: dict[str, Callable[[object, object], object]] = {
+RELOPS: dict[str, Callable[[Any, Any], Any]] = {
     "==": operator.eq,
     "!=": operator.ne,
     "<": operator.lt,

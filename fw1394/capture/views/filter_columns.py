@@ -39,6 +39,9 @@ class _Lazy(Mapping[str, tuple[np.ndarray, ...]]):
 
 #: Filter names whose packet column is the decoder's header field of another name.
 _HEADER_FIELDS = {"src": "source_id", "dst": "destination_id"}
+_PACKET_HEADER_FIELDS: tuple[str, ...] = ("src", "dst", "tlabel", "retry", "priority", "offset")
+_PACKET_HEADER_FIELDS += ("rcode", "data_length", "extended_tcode", "quadlet_data", "channel")
+_PACKET_HEADER_FIELDS += ("tag", "sy")
 
 
 def packet_columns(batch: Batch, decoded: Decoded, origin_ns: int) -> _Lazy:
@@ -51,11 +54,7 @@ def packet_columns(batch: Batch, decoded: Decoded, origin_ns: int) -> _Lazy:
         unknown = batch.flag("time_unknown") != 0
         return (np.where(unknown, -1, batch.ts_ns - origin_ns),)
 
-    builders: dict[str, Builder] = {
-        name: header(name)
-        for name in ("src", "dst", "tlabel", "retry", "priority", "offset", "rcode")
-        + ("data_length", "extended_tcode", "quadlet_data", "channel", "tag", "sy")
-    }
+    builders: dict[str, Builder] = {name: header(name) for name in _PACKET_HEADER_FIELDS}
     builders |= {
         "tcode": lambda: (decoded.tcode,),
         "ack": lambda: (np.where(batch.ack >= 0, batch.ack, ack_codes(batch)),),
