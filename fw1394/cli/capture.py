@@ -132,7 +132,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _create(path: str) -> BinaryIO:
-    return open(path, "wb")  # noqa: SIM115 - the writer closes it
+    return open(path, "wb")
 
 
 class _KeepOpen(io.BufferedIOBase):
