@@ -68,7 +68,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--count",
         type=positive,
         metavar="COUNT",
-        help="stop after COUNT packets (transactions) shown; stats and rom: records read",
+        help="read only the first COUNT records (as tshark -r -c), whatever the view",
     )
     parser.add_argument(
         "-t",

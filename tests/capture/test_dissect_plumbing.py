@@ -96,23 +96,29 @@ def test_empty_stdin_is_an_error() -> None:
 
 
 # -- -c ---------------------------------------------------------------------------------------
-def test_count_stops_after_count_rows(trace: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_count_reads_only_count_records(trace: Path, capsys: pytest.CaptureFixture[str]) -> None:
     _, everything, _ = dissect(capsys, str(trace))
     status, first, _ = dissect(capsys, str(trace), "-c", "37")
     assert status == 0 and first.splitlines() == everything.splitlines()[:37]
-    _, transactions, _ = dissect(capsys, str(trace), "--transactions", "--json")
-    _, some, _ = dissect(capsys, str(trace), "--transactions", "--json", "-c", "12")
-    assert some.splitlines() == transactions.splitlines()[:12]
     _, stats, _ = dissect(capsys, str(trace), "--stats", "--json", "-c", "100")
     assert json.loads(stats)["records_read"] == 100
+    # The transactions of the first 300 records are those of a trace cut after them.
+    cut = trace.parent / "first-300.pcapng"
+    records = list(simulate(2000, Scenario(lost_every=97, busy_every=89)))[:300]
+    write_trace(str(cut), records)
+    _, counted, _ = dissect(capsys, str(trace), "--transactions", "--json", "-c", "300")
+    _, truth, _ = dissect(capsys, str(cut), "--transactions", "--json")
+    assert counted == truth and len(truth.splitlines()) > 20
 
 
-def test_count_with_filter_counts_shown_rows(
-    trace: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    _, matching, _ = dissect(capsys, str(trace), "-Y", "tcode == read_block_request")
-    _, first, _ = dissect(capsys, str(trace), "-Y", "tcode == read_block_request", "-c", "5")
-    assert first.splitlines() == matching.splitlines()[:5] and len(first.splitlines()) == 5
+def test_count_applies_before_the_filter(trace: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """As tshark -r -c: COUNT records are read, then filtered."""
+    _, first, _ = dissect(capsys, str(trace), "-c", "200")
+    _, filtered, _ = dissect(capsys, str(trace), "-c", "200", "-Y", "tcode == read_quadlet_request")
+    assert filtered.splitlines() == [
+        line for line in first.splitlines() if " read_quadlet_request " in line
+    ]
+    assert filtered
 
 
 # -- -t ---------------------------------------------------------------------------------------

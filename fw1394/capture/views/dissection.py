@@ -53,7 +53,7 @@ class Options:
     workers: int = 2
     want_plots: bool = False
     display_filter: RowFilter | None = None
-    #: Stop after this many rows shown (packets, transactions) or records read (stats, rom).
+    #: Read only this many records (as ``tshark -r -c``), whatever the view.
     count: int | None = None
     time_format: str = "r"
 
@@ -150,19 +150,14 @@ class Dissection:
 
     @property
     def full(self) -> bool:
-        """``count`` reached: nothing more is read."""
-        count, outcome = self.options.count, self.outcome
-        if count is None:
-            return False
-        if self.options.view in ("packets", "transactions"):
-            return outcome.shown >= count
-        return outcome.records >= count
+        """``count`` records read: nothing more is."""
+        return self.options.count is not None and self.outcome.records >= self.options.count
 
     # -- per batch --------------------------------------------------------------------------
     def feed(self, batch: Batch, decoded: Decoded) -> None:
         outcome = self.outcome
         count = self.options.count
-        if count is not None and self.options.view in ("stats", "rom"):
+        if count is not None:
             room = count - outcome.records
             if len(batch) > room:
                 first = np.arange(len(batch)) < room
@@ -243,8 +238,6 @@ class Dissection:
         formatter = PacketFormatter(batch, decoded, self.origin_ns or 0)
         write, output = self.out.write, self.options.output
         rows = np.flatnonzero(keep)
-        if self.options.count is not None:
-            rows = rows[: self.options.count - self.outcome.shown]
         self.outcome.shown += len(rows)
         retimed = output == "text" and self.options.time_format != "r"
         if retimed:
@@ -307,15 +300,11 @@ class Dissection:
         )
 
     def _reset_line(self, reset: tuple[int, int, int]) -> None:
-        if self.full:
-            return
         _, frame, generation = reset
         self.out.write(f"{frame:>7}  ---- bus reset: generation {generation} ----\n")
         self._generation = generation
 
     def _transaction_row(self, formatter: TransactionFormatter, row: int) -> None:
-        if self.full:
-            return
         self.outcome.shown += 1
         if self.options.output == "json":
             self.out.write(json.dumps(formatter.json(row)) + "\n")
