@@ -189,6 +189,14 @@ def run(args: argparse.Namespace) -> int:
             require_matplotlib()
         except PlotError as error:
             raise CliError(str(error)) from None
+    for option, target in (("--plot-latency", args.plot_latency), ("--plot-size", args.plot_size)):
+        if target is None:
+            continue
+        if os.path.isdir(target):
+            raise CliError(f"{option} {target}: is a directory; name a PNG file")
+        parent = os.path.dirname(target) or "."
+        if not os.path.isdir(parent):
+            raise CliError(f"{option} {target}: directory {parent} does not exist")
     if args.threads < 1:
         raise CliError("--threads must be at least 1")
     if not 0 < args.port < 65536:

@@ -289,3 +289,13 @@ def test_live_bus_piped_into_dissect_and_tshark(tmp_path: Path) -> None:
     )  # fmt: skip
     assert theirs.returncode == 0, theirs.stderr
     assert len(theirs.stdout.splitlines()) == shown.stdout.count(b"read_quadlet_request")
+
+
+def test_plot_paths_are_checked_before_reading(
+    trace: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    status, out, err = dissect(capsys, str(trace), "--plot-latency", str(tmp_path))
+    assert status == 2 and out == "" and "is a directory" in err
+    missing = tmp_path / "no" / "such" / "dir" / "p.png"
+    status, out, err = dissect(capsys, str(trace), "--plot-size", str(missing))
+    assert status == 2 and out == "" and "does not exist" in err
