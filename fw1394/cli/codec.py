@@ -258,7 +258,7 @@ def field_value(name: str, width: int | None, enum: type[IntEnum] | None) -> Any
             ) from None
         if width is not None and not 0 <= value < 1 << width:
             raise argparse.ArgumentTypeError(
-                f"{text} does not fit in {width} bits (0..{(1 << width) - 1:#x})"
+                f"{value} ({value:#x}) does not fit in {width} bits (0..{(1 << width) - 1:#x})"
             )
         return value
 

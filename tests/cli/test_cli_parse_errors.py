@@ -64,9 +64,9 @@ def test_an_unknown_option_is_one_line(
     [
         (["read", "0", "xyz"], "OFFSET: 'xyz' is not a number"),
         (["encode"], "required: KIND"),
-        (["encode", "ack", "--parity", "99"], "--parity: 99 does not fit in 4 bits"),
+        (["encode", "ack", "--parity", "99"], "--parity: 99 (0x63) does not fit in 4 bits"),
         (["encode", "write_response", "--rcode", "resp_nonsense"], "--rcode"),
-        (["encode", "read_quadlet_request", "--tlabel", "64"], "--tlabel: 64 does not fit"),
+        (["encode", "read_quadlet_request", "--tlabel", "64"], "--tlabel: 64 (0x40) does not fit"),
         (["dissect", "x.pcapng", "-t", "q"], "-t/--time-format"),
         (["dissect", "x.pcapng", "-c", "0"], "-c/--count: '0' is not above zero"),
         (["capture"], "required: -w/--write"),
