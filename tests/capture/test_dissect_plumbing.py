@@ -299,3 +299,13 @@ def test_plot_paths_are_checked_before_reading(
     missing = tmp_path / "no" / "such" / "dir" / "p.png"
     status, out, err = dissect(capsys, str(trace), "--plot-size", str(missing))
     assert status == 2 and out == "" and "does not exist" in err
+
+
+def test_count_stops_before_a_cut(
+    trace: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    cut = tmp_path / "cut.pcapng"
+    whole = trace.read_bytes()
+    cut.write_bytes(whole[: len(whole) - 37])
+    status, out, err = dissect(capsys, str(cut), "-c", "10", "--threads", "1")
+    assert status == 0 and len(out.splitlines()) == 10 and err == ""

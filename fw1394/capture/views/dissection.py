@@ -160,8 +160,11 @@ class Dissection:
         if count is not None:
             room = count - outcome.records
             if len(batch) > room:
+                # Problems past the last record read are not this reading's (tshark: same).
+                limit = int(batch.position[room])
                 first = np.arange(len(batch)) < room
                 batch, decoded = batch.select(first), decoded.select(first)
+                batch.issues = [issue for issue in batch.issues if issue.position < limit]
         for issue in batch.issues:
             outcome.cut_short |= bool(getattr(issue, "cut_short", False))
             outcome.issues += 1
