@@ -227,9 +227,12 @@ def run(args: argparse.Namespace) -> int:
     name = "standard input" if path == sources.STDIN else path
     ports = sources.PortTally((args.port,))
     try:
-        if path == sources.STDIN:
+        if path == sources.STDIN and args.format != "auto":
+            fmt = args.format  # nothing to look at first: a live log is read as it comes
+            jobs = sources.stream_jobs(sys.stdin.buffer, fmt, ports)
+        elif path == sources.STDIN:
             stream, head = sources.open_stream(sys.stdin.buffer)
-            fmt = sources.detect_head(head, name) if args.format == "auto" else args.format
+            fmt = sources.detect_head(head, name)
             jobs = sources.stream_jobs(stream, fmt, ports)
         else:
             fmt = sources.detect(path) if args.format == "auto" else args.format

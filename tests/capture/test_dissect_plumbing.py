@@ -79,7 +79,9 @@ def test_stdin_detects_kernel_text(name: str) -> None:
     path = DATA / name
     from_file = fw1394("dissect", str(path))
     from_pipe = fw1394("dissect", "-", stdin=path.read_bytes())
+    named = fw1394("dissect", "-", "--format", "kernel", stdin=path.read_bytes())
     assert from_file.returncode == 0 and from_pipe.stdout == from_file.stdout != b""
+    assert named.stdout == from_file.stdout
 
 
 def test_r_option_and_positional_agree(trace: Path, capsys: pytest.CaptureFixture[str]) -> None:
