@@ -175,8 +175,9 @@ def test_encode_then_decode_every_kind(kind: str, capsys: pytest.CaptureFixture[
 def test_encode_out_of_range_field_is_one_line() -> None:
     result = fw1394("encode", "read_quadlet_request", "--tlabel", "64")
     assert result.returncode == 2
-    assert (
-        result.stderr.strip() == "fw1394: error: tlabel: 64 (0x40) does not fit in 6 bits (0..0x3f)"
+    assert result.stderr.strip() == (
+        "fw1394 encode read_quadlet_request: error: argument --tlabel: "
+        "64 (0x40) does not fit in 6 bits (0..0x3f) (see fw1394 encode read_quadlet_request --help)"
     )
 
 
