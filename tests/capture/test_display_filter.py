@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -66,15 +67,18 @@ trees = st.recursive(
 )
 
 
+def _scaled(scale: int) -> Callable[[int], int]:
+    """Durations are drawn in microseconds; counts as they are (negative: absent)."""
+    return lambda v: v * scale if v > 0 else v
+
+
 @st.composite
 def batches(draw: st.DrawFn) -> tuple[dict[str, tuple[np.ndarray, ...]], int]:
     rows = draw(st.integers(0, 40))
     columns = {}
     for name in FIELD_NAMES:
         width = draw(st.integers(1, 2))
-        values = st.integers(-1, 20).map(
-            lambda v, n=name: v * 1000 if df.FIELDS[n].duration and v > 0 else v
-        )
+        values = st.integers(-1, 20).map(_scaled(1000 if df.FIELDS[name].duration else 1))
         columns[name] = tuple(
             np.array(draw(st.lists(values, min_size=rows, max_size=rows)), np.int64)
             for _ in range(width)

@@ -9,6 +9,7 @@ import shutil
 import subprocess
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 import pytest
@@ -231,7 +232,7 @@ def test_demo_refuses_a_directory_for_its_capture(tmp_path: Path) -> None:
 
 # -- capture -w - -----------------------------------------------------------------------------
 class ListTap:
-    def __init__(self, records: list[object]) -> None:
+    def __init__(self, records: Sequence[object]) -> None:
         self.records = iter(records)
 
     def receive(self, timeout: float) -> object:
