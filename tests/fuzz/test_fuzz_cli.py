@@ -164,8 +164,9 @@ def test_a_finding_file_that_is_not_one(
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
 
 
-def test_a_new_run_replaces_the_old_findings(tmp_path: Path) -> None:
+def test_a_forced_run_replaces_the_old_findings(tmp_path: Path) -> None:
     (tmp_path / "007-old-finding.json").write_text("{}")
     (tmp_path / "notes.txt").write_text("mine")
-    assert fuzz("run", "inproc:memory", "--max-cases", "50", "--findings", str(tmp_path)) == 0
+    run = ("run", "inproc:memory", "--max-cases", "50", "--findings", str(tmp_path))
+    assert fuzz(*run, "--force") == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt", "report.json"]
