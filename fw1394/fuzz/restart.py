@@ -30,7 +30,7 @@ WORKER_VARIABLE = "FW1394_FUZZ_WORKER"
 #: Output of a restart command kept in a finding (its end, where errors are).
 OUTPUT_LIMIT = 2000
 #: Pause between two probes of a node that is not up yet.
-_RETRY = 0.05
+_RETRY = 0.02
 
 
 @dataclass(frozen=True)
