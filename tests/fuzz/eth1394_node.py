@@ -35,7 +35,7 @@ def crc32(data):
 
 
 def sealed(quadlets):
-    body = struct.pack(">%dI" % len(quadlets), *quadlets)
+    body = struct.pack(f">{len(quadlets)}I", *quadlets)
     return body + struct.pack(">I", crc32(body))
 
 
@@ -56,7 +56,8 @@ class Node:
         source, offset = q1 >> 16, (q1 & 0xFFFF) << 32 | q2
         if tcode == 4:  # quadlet read: Q0-Q2 and the header CRC
             good = len(packet) == 16 and crc32(packet[:12]) == struct.unpack(">I", packet[12:16])[0]
-            if not mine or not (good or "--bad-crc-reads" in self.flags and len(packet) == 16):
+            answered = good or ("--bad-crc-reads" in self.flags and len(packet) == 16)
+            if not mine or not answered:
                 return None
             if offset % 4 or offset + 4 > SIZE:
                 return None
@@ -65,7 +66,8 @@ class Node:
         if len(packet) < 20:
             return None
         q3, header_crc = struct.unpack(">II", packet[12:20])
-        if crc32(packet[:16]) != header_crc and not (tcode == 5 and "--bad-crc-reads" in self.flags):
+        read_anyway = tcode == 5 and "--bad-crc-reads" in self.flags
+        if crc32(packet[:16]) != header_crc and not read_anyway:
             return None
         if tcode == 0:  # quadlet write: the data in Q3, under the header CRC
             if len(packet) != 20 or node not in (0, 63):
@@ -108,13 +110,13 @@ def main():
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     sock.bind(("127.0.0.1", port))
     sock.settimeout(0.2)
-    print("listening on 127.0.0.1:%d" % sock.getsockname()[1], flush=True)
+    print(f"listening on 127.0.0.1:{sock.getsockname()[1]}", flush=True)
     node = Node(flags)
     end = time.monotonic() + seconds
     while time.monotonic() < end:
         try:
             datagram, peer = sock.recvfrom(65535)
-        except socket.timeout:
+        except TimeoutError:
             continue
         answer = node.handle(datagram[2:])
         if answer is not None:

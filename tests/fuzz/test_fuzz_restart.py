@@ -10,6 +10,7 @@ distinct findings, shrunk on fresh nodes, and reproduce on replay.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -75,10 +76,8 @@ def node(tmp_path: Path) -> Iterator[tuple[str, str]]:
         yield f"udp:127.0.0.1:{port}", str(script)
     finally:
         pid = int((tmp_path / "node.pid").read_text())
-        try:
+        with contextlib.suppress(ProcessLookupError):
             os.kill(pid, signal.SIGTERM)
-        except ProcessLookupError:
-            pass
 
 
 def cli(*args: str) -> subprocess.CompletedProcess[str]:

@@ -116,8 +116,8 @@ def test_workers_repeat_a_run_and_merge_their_findings() -> None:
     first = workers.run(settings, 2)
     second = workers.run(settings, 2)
     assert first.cases == second.cases == 900
-    as_json = [[json.dumps(f.to_json(), sort_keys=True) for f in r.findings] for r in (first, second)]
-    assert as_json[0] == as_json[1] and as_json[0]
+    texts = [[json.dumps(f.to_json(), sort_keys=True) for f in r.findings] for r in (first, second)]
+    assert texts[0] == texts[1] and texts[0]
     # One finding per signature, each from the worker that found it, whose seed it keeps.
     keys = [f.key for f in first.findings]
     assert len(keys) == len(set(keys))
