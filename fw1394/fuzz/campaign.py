@@ -77,6 +77,8 @@ def run(
     finally:
         if progress is not None:
             progress.close()
+    if fresh_starts(target) and not target.restartable and report.checks["restarts"]:
+        report.notes.append(f"the node was restarted {report.checks['restarts']} times")
     shrunk: list[Finding] = []
     try:
         for finding in report.findings:

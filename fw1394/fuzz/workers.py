@@ -67,7 +67,7 @@ def run(
         )
     start = time.monotonic()
     if jobs == 1:
-        return campaign.run(settings, progress, restart=restart)
+        return campaign.run(worker_settings(settings, 0, 1), progress, restart=restart)
     work = [(worker_settings(settings, w, jobs), restart, w) for w in range(jobs)]
     with ProcessPoolExecutor(jobs, mp_context=_context()) as pool:
         reports = list(pool.map(_work, work))
