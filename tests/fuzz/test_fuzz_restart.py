@@ -46,7 +46,10 @@ def free_port() -> int:
         return port
 
 
-def restart_script(directory: Path, port: int) -> Path:
+def restart_script(directory: Path, port: int, node: str = "") -> Path:
+    """A script that stops the node it started last and starts ``node`` (default:
+    the independent node with every violation) listening on ``port``."""
+    node = node or f'"{NODE}" {port} {NODE_LIFETIME} {" ".join(VIOLATIONS)}'
     pidfile = directory / "node.pid"
     script = directory / "restart-node.sh"
     script.write_text(
@@ -58,7 +61,7 @@ def restart_script(directory: Path, port: int) -> Path:
         "    sleep 0.01\n"
         "  done\n"
         "fi\n"
-        f'"{sys.executable}" "{NODE}" {port} {NODE_LIFETIME} {" ".join(VIOLATIONS)} >/dev/null &\n'
+        f'"{sys.executable}" {node} >/dev/null &\n'
         f'echo $! > "{pidfile}"\n'
         'echo "node started as process $!"\n'
     )
@@ -144,3 +147,28 @@ def test_a_node_that_never_comes_back_ends_the_run(tmp_path: Path) -> None:
     assert report["stopped"].startswith("target gone (no answer within 1.0 s of a restart")
     assert "exit status 3" in report["stopped"] and "giving up" in report["stopped"]
     assert report["cases"] < 3000
+
+
+def test_a_tunnel_node_is_restarted_after_a_wedge(tmp_path: Path) -> None:
+    """fw1394's tunnel framing, against ``fuzz serve`` with a planted wedge."""
+    port = free_port()
+    serve = (
+        f"-m fw1394.cli.main fuzz serve memory --listen 127.0.0.1:{port} "
+        f"--defect wedge-after-long-block-write --duration {NODE_LIFETIME}"
+    )
+    script = restart_script(tmp_path, port, serve)
+    subprocess.run([str(script)], check=True, stdout=subprocess.DEVNULL)
+    try:
+        result = cli(
+            "run", f"udp:127.0.0.1:{port}", "--model", "memory", "--restart", str(script),
+            "--max-cases", "400", "--timeout", "0.3", "--dead-after", "20",
+            "--shrink-budget", "4", "--findings", str(tmp_path / "found"), "--json",
+        )  # fmt: skip
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(int((tmp_path / "node.pid").read_text()), signal.SIGTERM)
+    report = json.loads(result.stdout)
+    assert report["stopped"] == "max-cases" and report["cases"] == 400, report["stopped"]
+    wedge = {f.key: f for _, f in load(tmp_path / "found")}[("liveness", "valid-read-unanswered")]
+    assert wedge.restarts and wedge.restarts[0]["status"] == 0
+    assert any("restarted" in note for note in report["notes"])
