@@ -164,8 +164,9 @@ def test_a_finding_file_that_is_not_one(
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
 
 
-def test_a_new_run_replaces_the_old_findings(findings_dir: Path) -> None:
+def test_a_forced_run_replaces_the_old_findings(findings_dir: Path) -> None:
     (findings_dir / "007-old-finding.json").write_text("{}")
     (findings_dir / "notes.txt").write_text("mine")
-    assert fuzz("run", "inproc:memory", "--max-cases", "50", "--findings", str(findings_dir)) == 0
+    run = ("run", "inproc:memory", "--max-cases", "50", "--findings", str(findings_dir))
+    assert fuzz(*run, "--force") == 0
     assert sorted(p.name for p in findings_dir.iterdir()) == ["notes.txt", "report.json"]
