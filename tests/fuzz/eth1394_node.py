@@ -24,7 +24,7 @@ SIZE = 0x10000
 SIDE_A, SIDE_B = 0x10, 0x24
 
 
-def crc32(data):
+def crc32(data: bytes) -> int:
     # CRC-32 over big-endian bytes, MSB first, poly 0x04C11DB7, init and xorout all ones.
     crc = 0xFFFFFFFF
     for byte in data:
@@ -34,18 +34,18 @@ def crc32(data):
     return crc ^ 0xFFFFFFFF
 
 
-def sealed(quadlets):
+def sealed(quadlets: list[int]) -> bytes:
     body = struct.pack(f">{len(quadlets)}I", *quadlets)
     return body + struct.pack(">I", crc32(body))
 
 
 class Node:
-    def __init__(self, flags):
+    def __init__(self, flags: set[str]) -> None:
         self.flags = flags
         self.memory = bytearray(SIZE)
         self.wedged = False
 
-    def handle(self, packet):
+    def handle(self, packet: bytes) -> bytes | None:
         """The response datagram for one request packet, or None."""
         if self.wedged or len(packet) < 16:
             return None
@@ -99,13 +99,13 @@ class Node:
                 self.memory[offset : offset + length] = data[:length]
         return None  # locks, responses, streams and unknown tcodes: silence
 
-    def response(self, destination, tlabel, tcode, quadlets):
+    def response(self, destination: int, tlabel: int, tcode: int, quadlets: list[int]) -> bytes:
         first = destination << 16 | tlabel << 10 | tcode << 4
         # From node 0 on the local bus, rcode complete; 8 extra bytes follow.
         return sealed([first, 0xFFC0 << 16, *quadlets]) + bytes(8)
 
 
-def main():
+def main() -> None:
     port, seconds, flags = int(sys.argv[1]), float(sys.argv[2]), set(sys.argv[3:])
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     sock.bind(("127.0.0.1", port))
