@@ -19,7 +19,7 @@ from fw1394.packets import AsyncPacket, PacketError, RCode, WriteResponse, name_
 from fw1394.packets.asynchronous import decode_async
 
 #: The oracles, as the findings name them.
-ORACLES = ("silence", "reply", "liveness", "state", "process")
+ORACLES = ("silence", "reply", "liveness", "state", "process", "interface")
 
 
 @dataclass(frozen=True)

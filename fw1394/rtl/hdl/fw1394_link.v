@@ -90,7 +90,7 @@ module fw1394_link #(
 `ifdef FW1394_DEFECT_UNBOUNDED_BLOCK
     wire        too_long = 1'b0;
 `else
-    wire        too_long = len > MAX_BLOCK;
+    wire        too_long = (tcode == T_BWRITE || tcode == T_BREAD) && len > MAX_BLOCK;
 `endif
     wire [17:0] expected = tcode == T_QREAD ? 18'd16
                          : tcode == T_BWRITE ? 18'd24 + {ndq, 2'b00} : 18'd20;
