@@ -5,9 +5,12 @@ case, a read-back after every write, a register sweep every 64 cases) and no
 shrinking; the rate counts cases only, not start-up. Baselines measured in the
 same run: the case generator alone, and one bare responder answering the same
 cases (the least a fuzzer with a reference model must spend is two of those).
-Targets: >= 5,000 cases/s in-process, >= 1,500 cases/s over UDP.
+Targets: >= 5,000 cases/s in-process, >= 1,500 cases/s over UDP, >= 50 cases/s
+for the thesis link RTL in Icarus Verilog (``rtl:thesis``; skipped without
+iverilog and cocotb), run interleaved with ``inproc:snake2010`` on the same
+seeds as its baseline.
 
-    python bench/fuzz.py [--cases 20000] [--remote-cases 5000]
+    python bench/fuzz.py [--cases 20000] [--remote-cases 5000] [--rtl-cases 1000]
 """
 
 from __future__ import annotations
@@ -32,6 +35,7 @@ from fw1394.fuzz.settings import Settings
 NODE = 0xFFC0
 IN_PROCESS_TARGET = 5_000
 UDP_TARGET = 1_500
+RTL_TARGET = 50
 KINDS = ("memory", "qla1", "snake2010")
 
 
@@ -95,8 +99,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", type=int, default=20_000, help="cases per in-process run")
     parser.add_argument("--remote-cases", type=int, default=5_000, help="cases per remote run")
+    parser.add_argument("--rtl-cases", type=int, default=1_000, help="cases per RTL run (0: skip)")
+    parser.add_argument("--rtl-only", action="store_true", help="only the RTL target")
     args = parser.parse_args()
     print(f"{'target':34} {'cases/s':>8} {'target':>7}  baselines (same run)")
+    if args.rtl_only:
+        rtl_rates(args.rtl_cases)
+        return
     worst_local = float("inf")
     for kind in KINDS:
         rate, _ = campaign_rate(
@@ -116,6 +125,28 @@ def main() -> None:
     local = verdict(worst_local, IN_PROCESS_TARGET)
     print(f"\nin-process: slowest {worst_local:,.0f} cases/s ({local})")
     print(f"over UDP:   slowest {udp:,.0f} cases/s ({verdict(udp, UDP_TARGET)})")
+    if args.rtl_cases:
+        rtl_rates(args.rtl_cases)
+
+
+def rtl_rates(cases: int) -> None:
+    """The thesis RTL (rtl:thesis) beside inproc:snake2010, three interleaved rounds."""
+    from fw1394.rtl.simulation import missing_tools
+
+    problem = missing_tools()
+    if problem:
+        print(f"{'rtl:thesis':34} skipped: {problem}")
+        return
+    rtl, emulated = [], []
+    for seed in range(3):
+        rtl.append(campaign_rate("rtl:thesis", cases, seed=seed)[0])
+        emulated.append(campaign_rate("inproc:snake2010", cases, seed=seed)[0])
+    rate, baseline = sorted(rtl)[1], sorted(emulated)[1]
+    print(
+        f"{'rtl:thesis (Icarus + cocotb)':34} {rate:8,.0f} {RTL_TARGET:7,}  "
+        f"inproc:snake2010 {baseline:,.0f}/s, ratio {baseline / rate:,.0f}x"
+    )
+    print(f"RTL:        median of 3 {rate:,.0f} cases/s ({verdict(rate, RTL_TARGET)})")
 
 
 def verdict(rate: float, target: int) -> str:

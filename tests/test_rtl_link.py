@@ -55,23 +55,27 @@ def test_answers_like_the_engine_byte_for_byte(thesis: Simulation) -> None:
     packets = [
         QuadletReadRequest(destination_id=ME, tlabel=1, source_id=HOST, offset=0),
         QuadletReadRequest(destination_id=ME, tlabel=2, source_id=HOST, offset=4),
-        QuadletWriteRequest(destination_id=ME, tlabel=3, source_id=HOST, offset=3,
-                            quadlet_data=0x1234),
+        QuadletWriteRequest(
+            destination_id=ME, tlabel=3, source_id=HOST, offset=3, quadlet_data=0x1234
+        ),
         QuadletReadRequest(destination_id=ME, tlabel=4, source_id=HOST, offset=3),
         BlockReadRequest(destination_id=ME, tlabel=5, source_id=HOST, offset=0, data_length=10),
-        BlockWriteRequest(destination_id=ME, tlabel=6, source_id=HOST, offset=0x11,
-                          data=bytes.fromhex("80001234")),
+        BlockWriteRequest(
+            destination_id=ME, tlabel=6, source_id=HOST, offset=0x11, data=bytes.fromhex("80001234")
+        ),
         BlockReadRequest(destination_id=ME, tlabel=7, source_id=HOST, offset=0x10, data_length=8),
         BlockReadRequest(destination_id=ME, tlabel=8, source_id=HOST, offset=0, data_length=4096),
         BlockWriteRequest(destination_id=ME, tlabel=9, source_id=HOST, offset=3, data=bytes(3000)),
         BlockReadRequest(destination_id=ME, tlabel=10, source_id=HOST, offset=0, data_length=0),
         # broadcast write: performed, never acked; then read back
-        QuadletWriteRequest(destination_id=0xFFFF, tlabel=11, source_id=HOST, offset=3,
-                            quadlet_data=0x77),
+        QuadletWriteRequest(
+            destination_id=0xFFFF, tlabel=11, source_id=HOST, offset=3, quadlet_data=0x77
+        ),
         QuadletReadRequest(destination_id=ME, tlabel=12, source_id=HOST, offset=3),
         QuadletReadRequest(destination_id=OTHER, tlabel=13, source_id=HOST, offset=0),
-        LockRequest(destination_id=ME, tlabel=14, source_id=HOST, offset=0, extended_tcode=2,
-                    data=bytes(8)),
+        LockRequest(
+            destination_id=ME, tlabel=14, source_id=HOST, offset=0, extended_tcode=2, data=bytes(8)
+        ),
     ]
     raws = [encode_async(p) for p in packets]
     good_read = raws[0]
@@ -92,26 +96,31 @@ def test_answers_like_the_engine_byte_for_byte(thesis: Simulation) -> None:
 
 def test_response_crcs_are_right(thesis: Simulation) -> None:
     raw = encode_async(QuadletReadRequest(destination_id=ME, tlabel=1, source_id=HOST, offset=4))
-    [[ack, response, concatenated]] = thesis.exchange([raw], 0.003)["replies"]
+    [[_, response, _]] = thesis.exchange([raw], 0.003)["replies"]
     wire = bytes.fromhex(response)
     assert int.from_bytes(wire[16:20], "big") == header_crc(wire[:16])
     assert decode_async(wire).problems == ()
 
 
-@pytest.mark.parametrize("spec", ["thesis-own", str(HERE / "split_lsb.toml"), str(HERE / "flag.toml")])
+@pytest.mark.parametrize(
+    "spec", ["thesis-own", str(HERE / "split_lsb.toml"), str(HERE / "flag.toml")]
+)
 def test_every_pin_style_reads_and_writes(spec: str) -> None:
     # inout/msb/active-high, split with enables/lsb/active-low, split with a PHY-drives flag
     sim = Simulation(load(spec), physical_id=3)
     try:
         assert sim.acked
         me = 0xFFC3
-        write = QuadletWriteRequest(destination_id=me, tlabel=1, source_id=HOST, offset=0x20,
-                                    quadlet_data=0xCAFE0001)
+        write = QuadletWriteRequest(
+            destination_id=me, tlabel=1, source_id=HOST, offset=0x20, quadlet_data=0xCAFE0001
+        )
         read = QuadletReadRequest(destination_id=me, tlabel=2, source_id=HOST, offset=0x20)
-        block = BlockWriteRequest(destination_id=me, tlabel=3, source_id=HOST, offset=0x30,
-                                  data=bytes(range(8)))
-        block_read = BlockReadRequest(destination_id=me, tlabel=4, source_id=HOST, offset=0x30,
-                                      data_length=8)
+        block = BlockWriteRequest(
+            destination_id=me, tlabel=3, source_id=HOST, offset=0x30, data=bytes(range(8))
+        )
+        block_read = BlockReadRequest(
+            destination_id=me, tlabel=4, source_id=HOST, offset=0x30, data_length=8
+        )
         answer = sim.exchange([encode_async(p) for p in (write, read, block, block_read)], 0.0)
         assert answer["violations"] == []
         (w_ack, _, _), (r_ack, r_raw, r_cat), (b_ack, _, _), (br_ack, br_raw, _) = answer["replies"]
@@ -124,7 +133,10 @@ def test_every_pin_style_reads_and_writes(spec: str) -> None:
 
 @pytest.mark.parametrize(
     "change",
-    [('reset_active = "high"', 'reset_active = "low"'), ('ctl = "ctl"', 'ctl = "ctl"\nctl0 = "lsb"')],
+    [
+        ('reset_active = "high"', 'reset_active = "low"'),
+        ('ctl = "ctl"', 'ctl = "ctl"\nctl0 = "lsb"'),
+    ],
     ids=["reset-polarity", "ctl-bit-order"],
 )
 def test_a_map_under_which_the_design_never_acks_is_refused(tmp_path: Path, change) -> None:
@@ -139,8 +151,9 @@ def test_a_map_under_which_the_design_never_acks_is_refused(tmp_path: Path, chan
 def test_long_hold_breaks_the_interface_rules() -> None:
     sim = Simulation(load("thesis"), physical_id=0, defines=("FW1394_DEFECT_LONG_HOLD",))
     try:
-        raw = encode_async(QuadletReadRequest(destination_id=0xFFC0, tlabel=1, source_id=HOST,
-                                              offset=0))
+        raw = encode_async(
+            QuadletReadRequest(destination_id=0xFFC0, tlabel=1, source_id=HOST, offset=0)
+        )
         answer = sim.exchange([raw], 0.0)
         assert [v.split(":")[0] for v in answer["violations"]] == ["hold"]
         assert answer["replies"][0][0] == AckCode.ack_pending  # answered all the same

@@ -53,8 +53,10 @@ def test_shipped_maps_load() -> None:
         (('lreq = "lreq"', 'lreq = "lreq"\nd0 = "middle"'), "d0 must be"),
         (("fw1394_thesis_node.v", "nowhere.v"), "does not exist"),
         (('d = "d"', 'd = "d[7:0]"'), "d must name a signal"),
-        (('lreq = "lreq"', 'lreq = "lreq"\n[registers]\naddr = "a"\nrdata = "r"'),
-         "the register bus needs wr, wdata"),
+        (
+            ('lreq = "lreq"', 'lreq = "lreq"\n[registers]\naddr = "a"\nrdata = "r"'),
+            "the register bus needs wr, wdata",
+        ),
         (('lreq = "lreq"', 'lreq = "lreq"\n[registers]\nmodel = "toaster"'), "unknown board kind"),
     ],
 )
@@ -81,9 +83,20 @@ def test_harness_compiles_lint_clean(portmap, tmp_path: Path) -> None:
     harness = tmp_path / "harness.v"
     harness.write_text(harness_verilog(portmap))
     result = subprocess.run(
-        ["iverilog", "-Wall", "-g2012", f"-I{HDL_DIR}", "-s", "fw1394_harness",
-         "-o", str(tmp_path / "sim.vvp"), *map(str, portmap.sources), str(harness)],
-        capture_output=True, text=True,
+        [
+            "iverilog",
+            "-Wall",
+            "-g2012",
+            f"-I{HDL_DIR}",
+            "-s",
+            "fw1394_harness",
+            "-o",
+            str(tmp_path / "sim.vvp"),
+            *map(str, portmap.sources),
+            str(harness),
+        ],
+        capture_output=True,
+        text=True,
     )
     assert result.returncode == 0, result.stderr
     assert result.stderr == "" and result.stdout == ""
@@ -96,8 +109,17 @@ def test_link_is_lint_clean_with_every_defect(defect: str | None, tmp_path: Path
     sources = sorted(str(p) for p in HDL_DIR.glob("*.v"))
     defines = [f"-D{define(defect)}"] if defect else []
     result = subprocess.run(
-        ["iverilog", "-Wall", "-g2012", f"-I{HDL_DIR}", *defines, "-o", str(tmp_path / "x"),
-         *sources],
-        capture_output=True, text=True,
+        [
+            "iverilog",
+            "-Wall",
+            "-g2012",
+            f"-I{HDL_DIR}",
+            *defines,
+            "-o",
+            str(tmp_path / "x"),
+            *sources,
+        ],
+        capture_output=True,
+        text=True,
     )
     assert result.returncode == 0 and result.stderr == "", result.stderr

@@ -7,8 +7,8 @@ Target specifications:
 * ``bus:NAME/NODE``: node NODE (a physical ID) of the virtual bus NAME;
 * ``udp:HOST[:PORT]``: a node behind a UDP tunnel, speaking fw1394's frames or,
   with ``eth1394``, the JHU Eth1394 framing;
-* ``rtl:PORTMAP``: a link design in a Verilog simulator (``fw1394.rtl``), PORTMAP a
-  port map file or the name of a shipped one (``thesis``).
+* ``rtl:PORTMAP[,waves=FILE]``: a link design in a Verilog simulator (``fw1394.rtl``),
+  PORTMAP a port map file or the name of a shipped one (``thesis``).
 """
 
 from __future__ import annotations
@@ -161,9 +161,10 @@ def open_trial(settings: Settings, target: Target | None = None) -> Trial:
 def _rtl_model(spec: str) -> str | None:
     """The board kind a port map names (its register bus is served by that board)."""
     from fw1394.rtl.portmap import PortMapError, load
+    from fw1394.rtl.target import split_spec
 
     try:
-        return load(spec).model
+        return load(split_spec(spec)[0]).model
     except PortMapError:
         return None
 
@@ -171,9 +172,10 @@ def _rtl_model(spec: str) -> str | None:
 def _check_rtl(settings: Settings, spec: str) -> None:
     from fw1394.rtl.defects import RTL_DEFECTS
     from fw1394.rtl.portmap import PortMapError, load
+    from fw1394.rtl.target import split_spec
 
     try:
-        portmap = load(spec)
+        portmap = load(split_spec(spec)[0])
     except PortMapError as error:
         raise SettingsError(str(error)) from None
     if settings.policy is not None:

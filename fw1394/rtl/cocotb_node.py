@@ -82,8 +82,11 @@ class Node:
         for text in packets:
             reply = await phy.exchange(bytes.fromhex(text))
             replies.append(
-                [reply.ack, None if reply.response is None else reply.response.hex(),
-                 reply.concatenated]
+                [
+                    reply.ack,
+                    None if reply.response is None else reply.response.hex(),
+                    reply.concatenated,
+                ]
             )
         violations, phy.violations = phy.violations, []
         return {"replies": replies, "violations": violations, "cycles": phy.cycles}

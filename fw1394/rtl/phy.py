@@ -114,10 +114,10 @@ class Phy:
         self.cycles += 1
         value = self.dut.mon.value
         if value.is_resolvable:
-            mon = value.to_unsigned()
+            mon = int(value.to_unsigned())
         else:
-            mon = int(value.binstr.replace("x", "0").replace("z", "0").replace("X", "0")
-                      .replace("Z", "0"), 2)
+            # X and Z read as 0; a link that drives them is told off below.
+            mon = int("".join(c if c in "01" else "0" for c in str(value)), 2)
             if mon >> MON_OE & 1:
                 self._violate("undriven-bits", "the link drives X or Z bits on CTL or D")
         if on and mon >> MON_OE & 1:
@@ -198,7 +198,9 @@ class Phy:
         value = self.registers[address]
         head = [0, 0, int(bus_reset), 0]
         await self.status(
-            head + [address >> (3 - i) & 1 for i in range(4)] + [value >> (7 - i) & 1 for i in range(8)]
+            head
+            + [address >> (3 - i) & 1 for i in range(4)]
+            + [value >> (7 - i) & 1 for i in range(8)]
         )
 
     async def receive(self, raw: bytes) -> None:
@@ -334,14 +336,17 @@ class Phy:
         first = next(c for c in captures if c.packets)
         ack_packet = first.packets[0]
         if len(ack_packet) != 1:
-            self._violate("ack-size", f"the link's first packet is {len(ack_packet)} bytes, not an ack")
+            self._violate(
+                "ack-size", f"the link's first packet is {len(ack_packet)} bytes, not an ack"
+            )
             return Reply(None, ack_packet, False)
         code, parity = ack_packet[0] >> 4, ack_packet[0] & 0xF
         if parity != code ^ 0xF:
             self._violate("ack-parity", f"ack byte {ack_packet[0]:#04x} fails its parity")
         if first.delay > self.ack_gap:
             self._violate(
-                "ack-gap", f"ack {first.delay} cycles after the packet, beyond the gap of {self.ack_gap}"
+                "ack-gap",
+                f"ack {first.delay} cycles after the packet, beyond the gap of {self.ack_gap}",
             )
         if len(first.packets) > 1:
             return Reply(code, first.packets[1], True)

@@ -145,9 +145,7 @@ def parse(data: dict[str, Any], path: Path) -> PortMap:
         raise PortMapError(f"{where}: addr_width must be 1..16")
     defines = tuple(str(item) for item in _list(design, "defines", where, required=False))
     parameters = design.get("parameters", {})
-    if not isinstance(parameters, dict) or not all(
-        isinstance(v, int) for v in parameters.values()
-    ):
+    if not isinstance(parameters, dict) or not all(isinstance(v, int) for v in parameters.values()):
         raise PortMapError(f"{where}: [design] parameters must map names to integers")
     gap = data.get("phy", {}).get("ack_gap", 40)
     if not isinstance(gap, int) or gap < 4:
@@ -281,7 +279,8 @@ def harness_verilog(portmap: PortMap) -> str:
                 "    wire ctl_oe, d_oe;",
                 "    assign link_oe = ctl_oe;",
                 # The input buffers see the pad: the PHY, else the link's own drive.
-                f"    wire [1:0] ctl_in = phy_on ? {ctl_map('phy_ctl')} : (ctl_oe ? ctl_out : 2'b00);",
+                f"    wire [1:0] ctl_in = phy_on ? {ctl_map('phy_ctl')}"
+                " : (ctl_oe ? ctl_out : 2'b00);",
                 f"    wire [7:0] d_in = phy_on ? {d_map('phy_d')} : (d_oe ? d_out : 8'h00);",
             ]
             connections += [f".{pins['ctl_oe']}(ctl_oe)", f".{pins['d_oe']}(d_oe)"]

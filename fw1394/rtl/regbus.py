@@ -12,6 +12,8 @@ a refused read gives zeros, a refused write does nothing.
 
 from __future__ import annotations
 
+from contextlib import suppress
+
 from fw1394.node.space import TICKS_PER_SECOND, AddressSpace, SpaceError
 
 
@@ -46,10 +48,8 @@ class RegisterServer:
             return 0
 
     def write(self, index: int, value: int) -> None:
-        try:
+        with suppress(SpaceError):
             self.space.write_quadlet(index * self.scale, value)
-        except SpaceError:
-            pass
 
     def block_read(self, index: int, length: int) -> int:
         if not self._read:
@@ -69,7 +69,5 @@ class RegisterServer:
         if len(self._written) >= max(1, (self._write_length + 3) // 4):
             data = b"".join(v.to_bytes(4, "big") for v in self._written)[: self._write_length]
             self._written = []
-            try:
+            with suppress(SpaceError):
                 self.space.write_block(self._write_start * self.scale, data)
-            except SpaceError:
-                pass

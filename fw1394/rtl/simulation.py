@@ -156,7 +156,8 @@ class Simulation:
             "board_id": board_id,
             "defects": list(board_defects),
         }
-        self._log = tempfile.TemporaryFile()
+        # The simulator's own output, kept for the error message if it dies.
+        self._log = tempfile.TemporaryFile()  # noqa: SIM115
         command = ["vvp", "-m", str(cocotb_tools.config.lib_entry("vpi", "icarus"))]
         command += [str(vvp), "-fst" if fst else "-none"]
         self.process = subprocess.Popen(

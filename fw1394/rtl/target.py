@@ -106,7 +106,28 @@ class RtlTarget:
         self.sim.close()
 
 
-def open_rtl(spec: str, *, node_id: int, board_id: int, defects: frozenset[str],
-             timeout: float) -> RtlTarget:
-    return RtlTarget(load(spec), node_id=node_id, board_id=board_id, defects=defects,
-                     timeout=timeout)
+def split_spec(spec: str) -> tuple[str, Path | None]:
+    """``PORTMAP[,waves=FILE]``: the port map, and where to write a waveform (VCD or FST)."""
+    portmap, _, options = spec.partition(",")
+    waves = None
+    for option in filter(None, options.split(",")):
+        key, _, value = option.partition("=")
+        if key != "waves" or not value:
+            raise PortMapError(f"rtl target option {option!r}: the only option is waves=FILE")
+        waves = Path(value).resolve()
+    return portmap, waves
+
+
+def open_rtl(
+    spec: str, *, node_id: int, board_id: int, defects: frozenset[str], timeout: float
+) -> RtlTarget:
+    """The target ``rtl:SPEC`` names (see :func:`split_spec`)."""
+    portmap, waves = split_spec(spec)
+    return RtlTarget(
+        load(portmap),
+        node_id=node_id,
+        board_id=board_id,
+        defects=defects,
+        timeout=timeout,
+        waves=waves,
+    )
