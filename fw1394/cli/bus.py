@@ -284,6 +284,14 @@ def bus_up(args: argparse.Namespace) -> int:
 def _check_board(kind: str) -> None:
     if kind == "memory":
         return
+    if kind.startswith("rtl:"):  # a link design in simulation (fw1394.rtl)
+        from fw1394.rtl.busnode import check_spec
+
+        try:
+            check_spec(kind)
+        except ValueError as error:
+            raise CliError(str(error)) from None
+        return
     from fw1394.node.boards import BOARDS
 
     if kind not in BOARDS:
@@ -362,6 +370,9 @@ def node_run(args: argparse.Namespace) -> int:
             raise CliError(f"cannot join bus {config.name!r} or open Eth1394: {error}") from None
         return 0
     # -- end JHU Eth1394 --
+    # -- RTL link designs (fw1394.rtl): this process runs the simulation --
+    if args.board.startswith("rtl:"):
+        return _rtl_node_run(args, config)
     space = _make_space(args)
     options = NodeOptions(
         config=config,
@@ -389,6 +400,35 @@ def node_run(args: argparse.Namespace) -> int:
         raise CliError(f"bus {config.name!r} refused this node: {error}") from None
     except OSError as error:
         raise CliError(f"cannot join bus {config.name!r}: {error}") from None
+    return 0
+
+
+def _rtl_node_run(args: argparse.Namespace, config: Any) -> int:
+    from fw1394.node.process import NodeOptions
+    from fw1394.rtl.busnode import BusRefusedError, check_spec, run_rtl_node
+
+    try:
+        check_spec(args.board)
+    except ValueError as error:
+        raise CliError(str(error)) from None
+    options = NodeOptions(
+        config=config,
+        board_id=args.board_id,
+        rank=args.rank,
+        timing=timing(args),
+        faults=faults(args),
+        defects=checked_defects(args.board, args.defect),
+    )
+    try:
+        run_rtl_node(
+            args.board,
+            options,
+            on_warning=lambda text: print(f"fw1394 node: warning: {text}", file=sys.stderr),
+        )
+    except BusRefusedError as error:
+        raise CliError(f"bus {config.name!r} refused this node: {error}") from None
+    except OSError as error:
+        raise CliError(f"cannot run the RTL node on bus {config.name!r}: {error}") from None
     return 0
 
 

@@ -38,6 +38,8 @@ BOARD_DEFECTS: dict[str, frozenset[str]] = {
 
 def known_defects(kind: str | None) -> dict[str, str]:
     """Defect names a target of board ``kind`` accepts, with what each does."""
+    if kind is not None and kind.startswith("rtl:"):
+        return _rtl_defects(kind.removeprefix("rtl:"))
     known = dict(PACKET_DEFECTS)
     for name in sorted(BOARD_DEFECTS.get(kind or "", frozenset())):
         known[name] = f"board defect of {kind} (docs/boards/)"
@@ -167,6 +169,17 @@ def _rtl_model(spec: str) -> str | None:
         return load(split_spec(spec)[0]).model
     except PortMapError:
         return None
+
+
+def _rtl_defects(spec: str) -> dict[str, str]:
+    """The RTL's planted defects, and those of the board serving its register bus."""
+    from fw1394.rtl.defects import RTL_DEFECTS
+
+    known = {name: f"RTL defect: {text}" for name, text in RTL_DEFECTS.items()}
+    model = _rtl_model(spec)
+    for name in sorted(BOARD_DEFECTS.get(model or "", frozenset())):
+        known[name] = f"board defect of {model} (docs/boards/)"
+    return known
 
 
 def _check_rtl(settings: Settings, spec: str) -> None:

@@ -73,6 +73,17 @@ class Node:
         phy.violations.clear()
         return reply.ack is not None
 
+    async def renumber(self, physical_id: int) -> None:
+        """A bus reset after which this node has ``physical_id``."""
+        phy = self.phy
+        assert phy is not None
+        phy.physical_id = physical_id
+        phy.set_id()
+        await phy.bus_reset()
+        for _ in range(SETTLE_CYCLES):
+            await phy.step()
+            await phy.service()
+
     async def exchange(self, now: float, packets: list[str]) -> dict[str, Any]:
         phy = self.phy
         assert phy is not None
@@ -111,6 +122,9 @@ async def serve(dut: Any) -> None:
         op = request.get("op")
         if op == "exchange":
             send(await node.exchange(request["now"], request["packets"]))
+        elif op == "bus_reset":
+            await node.renumber(request["physical_id"])
+            send({"ready": True})
         elif op == "restart":
             send({"ready": True, "acked": await node.start(check=False)})
         else:

@@ -89,7 +89,7 @@ class Phy:
         self.registers = [0] * 16
         self.registers[2] = 0xE2  # extended, two ports
         self.registers[3] = 0x40  # S400
-        self._set_id()
+        self.set_id()
         self.violations: list[str] = []
         self.requests: deque[Request] = deque()
         self.cycles = 0
@@ -99,7 +99,7 @@ class Phy:
         self._bus_resets = 0
         self._rdata = 0
 
-    def _set_id(self) -> None:
+    def set_id(self) -> None:
         # Physical_ID, R (root), PS (cable power)
         self.registers[0] = (self.physical_id << 2) | 0b11
 

@@ -214,6 +214,10 @@ class Simulation:
         acked: bool = self.request({"op": "restart"})["acked"]
         return acked
 
+    def bus_reset(self, physical_id: int) -> None:
+        """A bus reset that gives the node ``physical_id`` (the PHY tells the link)."""
+        self.request({"op": "bus_reset", "physical_id": physical_id})
+
     def log_tail(self) -> str:
         self._log.seek(0)
         text = self._log.read().decode(errors="replace").strip().splitlines()
