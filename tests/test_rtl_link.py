@@ -103,7 +103,9 @@ def test_response_crcs_are_right(thesis: Simulation) -> None:
 
 
 @pytest.mark.parametrize(
-    "spec", ["thesis-own", str(HERE / "split_lsb.toml"), str(HERE / "flag.toml")]
+    "spec",
+    ["thesis-own", str(HERE / "split_lsb.toml"), str(HERE / "flag.toml")],
+    ids=["inout-msb-high", "split-oe-lsb-low", "split-flag"],
 )
 def test_every_pin_style_reads_and_writes(spec: str) -> None:
     # inout/msb/active-high, split with enables/lsb/active-low, split with a PHY-drives flag
