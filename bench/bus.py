@@ -26,10 +26,10 @@ from typing import Any
 
 from fw1394.packets import AckCode, QuadletReadRequest, QuadletReadResponse
 from fw1394.packets.fast import encode_packet
+from fw1394.transport.bus_port import BusPort
 from fw1394.transport.config import BusConfig
 from fw1394.transport.medium import Medium
 from fw1394.transport.membership import Timing
-from fw1394.transport.port import BusPort
 from fw1394.transport.wire import AckPayload, FrameHeader, FrameKind, ack_byte
 
 BLOCK = 2048  # 512 quadlets

@@ -62,8 +62,8 @@ def measure(packet: AsyncPacket, seconds: float) -> dict[str, float]:
 
 def bulk_per_packet(seconds: float, verify_crc: bool, count: int = 100_000) -> float:
     """Seconds per packet of the vectorised header decoder over a batch of packets."""
-    from fw1394.capture import batch, columns
-    from fw1394.capture.record import BusRecord, RecordType
+    from fw1394.capture.analysis import batch, columns
+    from fw1394.capture.formats.record import BusRecord, RecordType
 
     kinds = list(SAMPLES.values())[:2]
     records = [BusRecord(i, RecordType.async_packet, encode(kinds[i % 2])) for i in range(count)]
@@ -85,7 +85,7 @@ def main() -> None:
                 f"{seconds / baseline:9.2f}"
             )
     print()
-    print(f"{'bulk (numpy, fw1394.capture.columns)':57} {'us/packet':>8} {'packets/s':>12}")
+    print(f"{'bulk (numpy, capture.analysis.columns)':57} {'us/packet':>8} {'packets/s':>12}")
     bulk: dict[bool, float] = {}
     for verify in (False, True):
         bulk[verify] = bulk_per_packet(args.seconds, verify)

@@ -33,8 +33,8 @@ TARGET_RATIO = 100
 _DISSECT = """
 import io, json, resource, sys, time
 begin = time.perf_counter()
-from fw1394.capture import sources
-from fw1394.capture.engine import Dissection, Options
+from fw1394.capture.formats import sources
+from fw1394.capture.views.dissection import Dissection, Options
 imported = time.perf_counter() - begin
 path, threads, verify = sys.argv[1], int(sys.argv[2]), sys.argv[3] == "1"
 start, cpu = time.perf_counter(), time.process_time()
@@ -49,7 +49,7 @@ print(json.dumps({"records": outcome.records, "wall_s": wall, "cpu_s": cpu,
 _SCAPY = """
 import json, resource, sys, time
 from scapy.utils import PcapReader
-import fw1394.capture.scapy_layers
+import fw1394.capture.views.scapy_layers
 start = time.perf_counter()
 count = sum(1 for _ in PcapReader(sys.argv[1]))
 wall = time.perf_counter() - start
@@ -66,8 +66,8 @@ def child(code: str, *args: str) -> dict[str, float]:
 
 
 def make_trace(path: Path, packets: int) -> float:
-    from fw1394.capture.simulate import simulate
-    from fw1394.capture.tracefile import write_trace
+    from fw1394.capture.analysis.traffic_sim import simulate
+    from fw1394.capture.formats.trace_writer import write_trace
 
     start = time.perf_counter()
     write_trace(str(path), simulate(packets))

@@ -18,9 +18,9 @@ import time
 import timeit
 from collections.abc import Callable
 
+from fw1394.boards.memory.board import MemorySpace
 from fw1394.engine import IEEE1394_NODE, THESIS_FPGA, Requester, Responder, ResponderPolicy
 from fw1394.engine.loopback import Link
-from fw1394.node.memory import MemorySpace
 from fw1394.packets import AsyncPacket, encode
 from fw1394.packets.asynchronous import decode_async
 

@@ -1,14 +1,12 @@
-"""Capturing and dissecting IEEE 1394 traffic.
+"""Capturing and dissecting IEEE 1394 traffic, split by role.
 
-* :mod:`~fw1394.capture.record`, :mod:`~fw1394.capture.pseudo_header`: the record
-  type and fw1394's pcap link layer (``docs/capture-format.md``);
-* :mod:`~fw1394.capture.pcapng`, :mod:`~fw1394.capture.tracefile`,
-  :mod:`~fw1394.capture.live`: writing traces, capturing a bus or Eth1394 UDP;
-* :mod:`~fw1394.capture.sources` and the readers it uses (pcap/pcapng, Eth1394,
-  nosy-dump, kernel text): every input as :class:`~fw1394.capture.batch.Batch` columns;
-* :mod:`~fw1394.capture.columns`, :mod:`~fw1394.capture.transactions`,
-  :mod:`~fw1394.capture.stats`, :mod:`~fw1394.capture.rom`: the numpy bulk path;
-* :mod:`~fw1394.capture.engine`: ``fw1394 dissect``;
-* :mod:`~fw1394.capture.lua`, :mod:`~fw1394.capture.scapy_layers`: Wireshark and
-  scapy, generated from the packet layouts.
+* :mod:`fw1394.capture.formats`: what traces are made of and how they are read and
+  written: the record type and fw1394's pcap link layer (``docs/capture-format.md``),
+  pcap/pcapng readers and writers, Eth1394 UDP, nosy-dump and kernel text, live
+  capture, and :mod:`~fw1394.capture.formats.sources` that opens any of them as
+  :class:`~fw1394.capture.analysis.batch.Batch` columns;
+* :mod:`fw1394.capture.analysis`: the numpy bulk path over those columns: header
+  fields, CRCs, transactions, statistics, configuration ROMs;
+* :mod:`fw1394.capture.views`: what people see: ``fw1394 dissect``'s rows and plots,
+  the Wireshark Lua dissector and the scapy layers, generated from the packet layouts.
 """

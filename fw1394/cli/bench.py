@@ -97,7 +97,7 @@ def size_list(text: str, low: int, high: int, what: str) -> tuple[int, ...]:
 
 
 def _settings(args: argparse.Namespace) -> Any:
-    from fw1394.bench.settings import EXPERIMENTS, FULL, QUICK, adjusted
+    from fw1394.experiments.run_settings import EXPERIMENTS, FULL, QUICK, adjusted
 
     skip = {name for name in args.skip.replace(" ", "").split(",") if name}
     unknown = skip - set(EXPERIMENTS)
@@ -124,14 +124,14 @@ def _settings(args: argparse.Namespace) -> Any:
 
 
 def run_bench_command(args: argparse.Namespace) -> int:
-    from fw1394.bench.connect import TargetUnavailable, parse_target
-    from fw1394.bench.progress import Progress
-    from fw1394.bench.report import render
-    from fw1394.bench.results import digest
-    from fw1394.bench.run import run_bench
-    from fw1394.bench.timing import MeasurementError
-    from fw1394.jhu.addressing import AddressRefusedError
-    from fw1394.node.boards import BOARDS
+    from fw1394.boards import BOARDS
+    from fw1394.experiments.connect import TargetUnavailable, parse_target
+    from fw1394.experiments.phase_progress import Progress
+    from fw1394.experiments.report_text import render
+    from fw1394.experiments.results import digest
+    from fw1394.experiments.run import run_bench
+    from fw1394.experiments.timing import MeasurementError
+    from fw1394.transport.eth1394_addresses import AddressRefusedError
 
     settings = _settings(args)
     try:
@@ -159,8 +159,8 @@ def run_bench_command(args: argparse.Namespace) -> int:
     numbers = digest(result)
     if args.plots is not None:
         # Imported only here: plotting pulls in matplotlib and the capture package's helpers.
-        from fw1394.bench.plots import write_plots
-        from fw1394.capture.plots import PlotError
+        from fw1394.capture.views.trace_plots import PlotError
+        from fw1394.experiments.figures import write_plots
 
         try:
             paths = write_plots(result, numbers, args.plots)

@@ -5,37 +5,26 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
-from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
+from fw1394.boards.qla1.busnode import add_eth1394_options, eth1394_node_arguments
+from fw1394.boards.registry import board_defects, board_kind
 from fw1394.cli.common import CliError, print_json_lines, print_table
-from fw1394.cli.fuzz import add_defect_option, board_defects, checked_defects, defect_arguments
-from fw1394.engine import IEEE1394_NODE, JHU_FIRMWARE, THESIS_FPGA
-from fw1394.jhu.busnode import add_eth1394_options, eth1394_node_arguments
+from fw1394.cli.fuzz import add_defect_option, checked_defects, defect_arguments
+from fw1394.engine.policy import POLICIES
 from fw1394.transport.config import DEFAULT_BUS, BusConfig, BusNameError
 from fw1394.transport.faults import FaultConfig
 from fw1394.transport.membership import Timing
 from fw1394.transport.wire import MAX_MEMBERS, MemberInfo
 
 if TYPE_CHECKING:
-    from fw1394.transport.port import BusPort
+    from fw1394.transport.bus_port import BusPort
 
 DEFAULT_TIMING = Timing()
-#: Responder policies by name. "quick" is an ordinary IEEE 1394 node that answers
-#: reads and locks in the ack's bus tenure and writes with ack_complete: the fewest
-#: subactions, as the thesis boards do, but with lock support.
-POLICIES = {
-    "thesis": THESIS_FPGA,
-    "ieee1394": IEEE1394_NODE,
-    "jhu": JHU_FIRMWARE,
-    "quick": replace(IEEE1394_NODE, read_mode="concatenated", write_mode="unified"),
-}
 
 
 def default_policy(board: str) -> str:
-    if board == "memory":
-        return "quick"
-    return "jhu" if board.startswith("qla") else "thesis"
+    return board_kind(board).policy
 
 
 BUS_EXAMPLES = """\
@@ -112,7 +101,7 @@ def faults(args: argparse.Namespace) -> FaultConfig:
 
 def host_port(args: argparse.Namespace) -> BusPort:
     """A host port on the bus the options name, waiting ``--timeout`` per transaction."""
-    from fw1394.transport.port import BusPort
+    from fw1394.transport.bus_port import BusPort
 
     config = bus_config(args)
     try:
@@ -183,7 +172,7 @@ def register(subparsers: Any) -> None:
         help="board kind, or kinds separated by commas given to the nodes in turn "
         "(default: memory)",
     )
-    add_eth1394_options(up)  # JHU Eth1394 (fw1394.jhu.busnode)
+    add_eth1394_options(up)  # JHU Eth1394 (fw1394.boards.qla1.busnode)
     add_defect_option(up)  # planted bugs for the fuzzer, on every node
     up.add_argument("--timeout", type=float, default=60.0, help="seconds to wait for the nodes")
     up.add_argument("--json", action="store_true", help="JSON lines instead of a table")
@@ -217,7 +206,7 @@ def add_node_run_options(run: argparse.ArgumentParser) -> None:
     add_bus_options(run)
     add_member_options(run)
     run.add_argument("--board", default="memory", help="board kind (default: memory)")
-    add_eth1394_options(run)  # JHU Eth1394 (fw1394.jhu.busnode)
+    add_eth1394_options(run)  # JHU Eth1394 (fw1394.boards.qla1.busnode)
     run.add_argument("--board-id", type=int, default=0, help="the board's own ID (rotary switch)")
     run.add_argument("--memory-size", type=int, default=65536, help="bytes of a memory node")
     run.add_argument(
@@ -229,7 +218,7 @@ def add_node_run_options(run: argparse.ArgumentParser) -> None:
     run.add_argument("--rank", type=int, default=None, help="order key (default: start time)")
     run.add_argument("--parent-pid", type=int, default=None, help=argparse.SUPPRESS)
     run.add_argument("--quiet", action="store_true", help="no log lines on stderr")
-    add_defect_option(run)  # planted bugs for the fuzzer (fw1394.node.defects)
+    add_defect_option(run)  # planted bugs for the fuzzer (fw1394.engine.defects)
 
 
 def _bus_handler(action: str) -> Any:
@@ -252,9 +241,9 @@ def bus_up(args: argparse.Namespace) -> int:
         )
     for kind in args.board.split(","):
         _check_board(kind)
-        checked_defects(kind, args.defect)  # before any process starts
+        _checked_defects(kind, args.defect)  # before any process starts
     node_arguments = (*member_arguments(args),)
-    # -- JHU Eth1394 (fw1394.jhu.busnode): qla1 firmware and Ethernet cabling --
+    # -- JHU Eth1394 (fw1394.boards.qla1.busnode): qla1 firmware and Ethernet cabling --
     try:
         node_arguments += eth1394_node_arguments(args)
     except ValueError as error:
@@ -293,10 +282,10 @@ def _check_board(kind: str) -> None:
         except ValueError as error:
             raise CliError(str(error)) from None
         return
-    from fw1394.node.boards import BOARDS
+    from fw1394.boards import BOARDS
 
     if kind not in BOARDS:
-        known = ", ".join(["memory", *sorted(BOARDS)])
+        known = ", ".join(sorted(BOARDS))
         raise CliError(f"unknown board kind {kind!r}; known kinds: {known}")
 
 
@@ -358,9 +347,9 @@ def node_run(args: argparse.Namespace) -> int:
     if args.parent_pid is not None:
         die_with_parent(args.parent_pid)
     config = bus_config(args)
-    # -- JHU Eth1394 (fw1394.jhu.busnode): qla1 boards run with their Ethernet side --
+    # -- JHU Eth1394 (fw1394.boards.qla1.busnode): qla1 boards run with their Ethernet side --
     if args.board == "qla1":
-        from fw1394.jhu.busnode import run_from_arguments
+        from fw1394.boards.qla1.busnode import run_from_arguments
 
         try:
             eth1394_node_arguments(args)
@@ -404,6 +393,17 @@ def node_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _checked_defects(kind: str, names: list[str]) -> frozenset[str]:
+    if not kind.startswith("rtl:"):
+        return checked_defects(kind, names)
+    from fw1394.fuzz.targets import rtl_defects
+
+    unknown = sorted(set(names) - rtl_defects(kind.removeprefix("rtl:")).keys())
+    if unknown:
+        raise CliError(f"unknown defect {unknown[0]!r} for {kind}; see docs/rtl.md")
+    return frozenset(names)
+
+
 def _rtl_node_run(args: argparse.Namespace, config: Any) -> int:
     from fw1394.node.process import NodeOptions
     from fw1394.rtl.busnode import BusRefusedError, check_spec, run_rtl_node
@@ -418,7 +418,7 @@ def _rtl_node_run(args: argparse.Namespace, config: Any) -> int:
         rank=args.rank,
         timing=timing(args),
         faults=faults(args),
-        defects=checked_defects(args.board, args.defect),
+        defects=_checked_defects(args.board, args.defect),
     )
     try:
         run_rtl_node(
@@ -437,12 +437,12 @@ def _make_space(args: argparse.Namespace) -> Any:
     if not 0 <= args.board_id <= 0xFE:
         raise CliError(f"--board-id {args.board_id} is outside 0..254")
     if args.board == "memory":
-        from fw1394.node.memory import MemorySpace
+        from fw1394.boards.memory.board import MemorySpace
 
         if args.memory_size <= 0 or args.memory_size % 4:
             raise CliError(f"--memory-size {args.memory_size} is not a positive multiple of 4")
         return MemorySpace(args.memory_size, board_id=args.board_id)
-    from fw1394.node.boards import make_board
+    from fw1394.boards import make_board
 
     _check_board(args.board)
     try:

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 from fw1394.cli.common import CliError
 
 if TYPE_CHECKING:
-    from fw1394.transport.tap import BusTap
+    from fw1394.capture.formats.bus_tap import BusTap
 
 EPILOG = """\
 examples:
@@ -50,9 +50,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 
 def run(args: argparse.Namespace) -> int:
-    from fw1394.capture import live
-    from fw1394.capture.pcapng import LINKTYPE_ETHERNET, PcapngWriter, PcapWriter
-    from fw1394.capture.pseudo_header import LINKTYPE_FW1394
+    from fw1394.capture.formats import live
+    from fw1394.capture.formats.pcap_writer import LINKTYPE_ETHERNET, PcapngWriter, PcapWriter
+    from fw1394.capture.formats.pseudo_header import LINKTYPE_FW1394
 
     if args.udp and args.bus:
         raise CliError("--bus and --udp are two different captures: choose one")
@@ -104,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _open_tap(bus: str) -> BusTap:
     try:
-        from fw1394.transport.tap import BusTap
+        from fw1394.capture.formats.bus_tap import BusTap
     except ImportError as error:
         raise CliError(f"virtual bus capture is not available: {error}") from None
     try:

@@ -9,7 +9,7 @@ import sys
 from collections.abc import Iterator
 from typing import Any
 
-from fw1394.cli.common import CliError, hex_bytes, integer, print_table, quadlets_hex
+from fw1394.cli.common import CliError, hex_bytes, integer, print_table
 from fw1394.packets import (
     ASYNC_CLASSES,
     PHY_CLASSES,
@@ -24,6 +24,7 @@ from fw1394.packets import (
     summary,
     to_json,
 )
+from fw1394.packets.hextext import quadlets_hex
 
 DECODE_EPILOG = """\
 input: one packet as hex arguments, or one packet per line on standard input.

@@ -77,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
             raise CliError(f"{option} {path}: directory {path.parent} does not exist")
     from fw1394.demo import run_demo
     from fw1394.demo.report import plot, summary, traffic
-    from fw1394.transport.host import BusError, TransactionError
+    from fw1394.transport.bus_host import BusError, TransactionError
     from fw1394.transport.launch import LaunchError
 
     live = sys.stderr.isatty() and not args.json

@@ -116,9 +116,14 @@ def tcode_values(texts: list[str]) -> frozenset[int]:
 
 def run(args: argparse.Namespace) -> int:
     try:
-        from fw1394.capture import sources
-        from fw1394.capture.engine import Dissection, Options
-        from fw1394.capture.plots import PlotError, plot_latency, plot_size, require_matplotlib
+        from fw1394.capture.formats import sources
+        from fw1394.capture.views.dissection import Dissection, Options
+        from fw1394.capture.views.trace_plots import (
+            PlotError,
+            plot_latency,
+            plot_size,
+            require_matplotlib,
+        )
     except ImportError as error:
         # numpy carries the bulk path; without it there is nothing to dissect with.
         raise CliError(f"fw1394 dissect needs {error.name}: pip install {error.name}") from None

@@ -255,7 +255,8 @@ def run_serve(args: argparse.Namespace) -> int:
 
 
 def list_defects(args: argparse.Namespace) -> int:
-    from fw1394.fuzz.targets import KINDS, known_defects
+    from fw1394.boards.registry import known_defects
+    from fw1394.fuzz.targets import KINDS
 
     if args.board is not None and args.board not in KINDS:
         raise CliError(f"unknown board kind {args.board!r}; known kinds: {', '.join(KINDS)}")
@@ -287,19 +288,12 @@ def defect_arguments(args: argparse.Namespace) -> tuple[str, ...]:
 
 def checked_defects(kind: str, names: list[str]) -> frozenset[str]:
     """``names`` if board ``kind`` (or the responder) knows each, else a one-line error."""
-    from fw1394.fuzz.targets import known_defects
+    from fw1394.boards.registry import check_defects
 
-    unknown = sorted(set(names) - known_defects(kind).keys())
-    if unknown:
-        raise CliError(f"unknown defect {unknown[0]!r} for {kind}; see `fw1394 fuzz defects`")
-    return frozenset(names)
-
-
-def board_defects(kind: str, names: frozenset[str]) -> frozenset[str]:
-    """The part of ``names`` the board itself plants (plain memory plants none)."""
-    from fw1394.fuzz.targets import BOARD_DEFECTS
-
-    return names & BOARD_DEFECTS.get(kind, frozenset())
+    try:
+        return check_defects(kind, names)
+    except ValueError as error:
+        raise CliError(str(error)) from None
 
 
 def _guarded(action: Any) -> Any:

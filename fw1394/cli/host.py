@@ -12,8 +12,9 @@ import json
 from typing import Any
 
 from fw1394.cli.bus import add_bus_options, add_member_options, bus_config, host_port
-from fw1394.cli.common import CliError, fail, integer, quadlets_hex
+from fw1394.cli.common import CliError, fail, integer
 from fw1394.packets import ExtendedTCode, RCode, name_of
+from fw1394.packets.hextext import quadlets_hex
 
 LOCK_OPERATIONS = {
     name: int(ExtendedTCode[name])
@@ -90,7 +91,7 @@ def _quadlet(value: int) -> bytes:
 
 def _transact(args: argparse.Namespace, what: str, action: Any) -> Any:
     """Join the bus, check the node is there, run ``action(port)``, leave."""
-    from fw1394.transport.host import BusError, TransactionError
+    from fw1394.transport.bus_host import BusError, TransactionError
 
     _check(args)
     config = bus_config(args)
@@ -137,7 +138,7 @@ def _report(args: argparse.Namespace, result: dict[str, Any], text: str) -> None
 
 
 def run_read(args: argparse.Namespace) -> int:
-    from fw1394.transport.host import MAX_BLOCK_READ
+    from fw1394.transport.bus_host import MAX_BLOCK_READ
 
     if not 0 < args.length <= MAX_BLOCK_READ:
         # The 1394 field allows 65535, but the answer must fit one datagram.
@@ -161,7 +162,7 @@ def run_read(args: argparse.Namespace) -> int:
 
 
 def run_write(args: argparse.Namespace) -> int:
-    from fw1394.transport.host import MAX_BLOCK_WRITE
+    from fw1394.transport.bus_host import MAX_BLOCK_WRITE
 
     data = b"".join(_quadlet(value) for value in args.values)
     if len(data) > MAX_BLOCK_WRITE:

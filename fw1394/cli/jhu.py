@@ -94,9 +94,9 @@ def register(subparsers: Any) -> None:
 
 
 def run_serve(args: argparse.Namespace) -> int:
-    from fw1394.jhu.addressing import AddressRefusedError, parse_endpoint
-    from fw1394.jhu.rack import Rack
-    from fw1394.jhu.server import Eth1394Server
+    from fw1394.boards.qla1.eth_server import Eth1394Server
+    from fw1394.boards.qla1.rack import Rack
+    from fw1394.transport.eth1394_addresses import AddressRefusedError, parse_endpoint
 
     try:
         endpoint = parse_endpoint(args.eth1394)
@@ -140,8 +140,8 @@ def run_serve(args: argparse.Namespace) -> int:
 
 
 def _client(args: argparse.Namespace) -> Any:
-    from fw1394.jhu.addressing import AddressRefusedError, parse_endpoint
     from fw1394.jhu.client import EthUdpClient
+    from fw1394.transport.eth1394_addresses import AddressRefusedError, parse_endpoint
 
     kind, _, rest = args.port_spec.partition(":")
     if kind not in ("udp", "udpfw"):
@@ -232,7 +232,7 @@ def _run_access(client: Any, scan: Any, args: argparse.Namespace) -> int:
 def _run_rt(client: Any, scan: Any, args: argparse.Namespace) -> int:
     import time
 
-    from fw1394.jhu.realtime import RealTimeLoop
+    from fw1394.jhu.rt_loop import RealTimeLoop
     from fw1394.jhu.scan import Protocol
 
     protocol = Protocol(args.protocol) if args.protocol else None

@@ -12,7 +12,7 @@ from fw1394.cli.bus import add_bus_options, add_member_options, host_port
 from fw1394.cli.common import CliError, integer
 
 if TYPE_CHECKING:
-    from fw1394.transport.port import BusPort
+    from fw1394.transport.bus_port import BusPort
     from fw1394.watch.readings import BoardReading
     from fw1394.watch.sampler import WatchedBoard
 
@@ -109,7 +109,7 @@ def _check(args: argparse.Namespace) -> None:
 
 def run(args: argparse.Namespace) -> int:
     _check(args)
-    from fw1394.transport.host import BusError
+    from fw1394.transport.bus_host import BusError
 
     with host_port(args) as port:
         try:

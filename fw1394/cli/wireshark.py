@@ -28,7 +28,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 
 def run(args: argparse.Namespace) -> int:
-    from fw1394.capture.lua import generate
+    from fw1394.capture.views.lua_dissector import generate
 
     sys.stdout.write(generate())
     return 0

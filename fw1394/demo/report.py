@@ -2,16 +2,15 @@
 
 from __future__ import annotations
 
+import io
 import json
 import math
 import statistics
-import subprocess
-import sys
 from pathlib import Path
 from typing import Any
 
+from fw1394.boards.snake2010.spec import ENCODER_MIDPOINT
 from fw1394.demo.run import DemoResult
-from fw1394.node.boards.snake2010_spec import ENCODER_MIDPOINT
 
 
 def percentile(values: list[float], share: float) -> float:
@@ -100,9 +99,14 @@ def plot(result: DemoResult, path: Path) -> None:
 
 def traffic(path: Path) -> dict[str, Any]:
     """The dissector's statistics of the demo's capture (``fw1394 dissect --stats``)."""
-    command = [sys.executable, "-m", "fw1394.cli.main", "dissect", str(path), "--stats", "--json"]
-    done = subprocess.run(command, capture_output=True, text=True, timeout=120)
-    if done.returncode != 0 or not done.stdout.strip():
-        return {"error": done.stderr.strip() or f"dissect exited with {done.returncode}"}
-    stats: dict[str, Any] = json.loads(done.stdout.splitlines()[-1])
+    from fw1394.capture.formats import sources
+    from fw1394.capture.views.dissection import Dissection, Options
+
+    out = io.StringIO()
+    try:
+        jobs = sources.jobs(str(path), sources.detect(str(path)))
+        Dissection(Options(view="stats", output="json"), out).run(jobs)
+    except sources.SourceError as error:
+        return {"error": str(error)}
+    stats: dict[str, Any] = json.loads(out.getvalue().splitlines()[-1])
     return stats

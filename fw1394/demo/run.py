@@ -13,19 +13,19 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from fw1394.engine import FailureReason
-from fw1394.host import Board, MultiBoard, PdGains, PositionLoop
-from fw1394.node.boards.snake2010_spec import (
+from fw1394.boards.snake2010.spec import (
     ENCODER_MIDPOINT,
     REG_WATCHDOG_PERIOD,
     STATUS_WATCHDOG_TIMEOUT,
     WATCHDOG_PRESCALER,
 )
-from fw1394.node.space import TICKS_PER_SECOND
+from fw1394.engine import FailureReason
+from fw1394.engine.space import TICKS_PER_SECOND
+from fw1394.host import Board, MultiBoard, PdGains, PositionLoop
+from fw1394.transport.bus_host import TransactionError
+from fw1394.transport.bus_port import BusPort
 from fw1394.transport.config import BusConfig
-from fw1394.transport.host import TransactionError
 from fw1394.transport.launch import LaunchedBus
-from fw1394.transport.port import BusPort
 
 #: The robot of thesis section 1.2: actuation unit (7 axes) and Z-Theta stage (4).
 BOARDS = ("snake2010", "snake2010-ztheta")
@@ -110,17 +110,7 @@ def _tap(config: BusConfig, path: Path | None) -> Iterator[None]:
     if path is None:
         yield
         return
-    command = [
-        sys.executable,
-        "-m",
-        "fw1394.cli.main",
-        "capture",
-        "--bus",
-        config.name,
-        "-w",
-        str(path),
-        "-q",
-    ]
+    command = [sys.executable, "-m", "fw1394.capture.formats.bus_recorder", config.name, str(path)]
     tap = subprocess.Popen(command, stdin=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         # The capture writes its file header once its tap listens; traffic waits for it.

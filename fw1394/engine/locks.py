@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from fw1394.node.space import AddressSpace, DataError, TypeError1394
+from fw1394.engine.space import AddressSpace, DataError, TypeError1394
 from fw1394.packets import ExtendedTCode, LockRequest
 
 #: Operand sizes the standard defines for the arithmetic lock functions.

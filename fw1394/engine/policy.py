@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Final, Literal, get_args
 
 ReadMode = Literal["concatenated", "split"]
@@ -90,3 +90,15 @@ JHU_FIRMWARE: Final = ResponderPolicy(
     ignore_bus_id=True,
     locks=False,
 )
+
+#: The thesis's fast replies with locks served: reads in the ack's bus tenure and
+#: writes acked complete, the fewest subactions (plain memory nodes use it).
+QUICK_NODE: Final = replace(IEEE1394_NODE, read_mode="concatenated", write_mode="unified")
+
+#: Every policy by the name the CLI, the board registry and the fuzzer use.
+POLICIES: Final[dict[str, ResponderPolicy]] = {
+    "thesis": THESIS_FPGA,
+    "ieee1394": IEEE1394_NODE,
+    "jhu": JHU_FIRMWARE,
+    "quick": QUICK_NODE,
+}

@@ -12,8 +12,7 @@ from typing import NamedTuple
 
 from fw1394.engine.locks import perform_lock
 from fw1394.engine.policy import IEEE1394_NODE, ResponderPolicy
-from fw1394.engine.table import ANSWERS, SCREENS, Answer, Delivery, Outcome, Screen
-from fw1394.node.space import (
+from fw1394.engine.space import (
     TICKS_PER_SECOND,
     AddressError,
     AddressSpace,
@@ -22,6 +21,7 @@ from fw1394.node.space import (
     SpaceError,
     TypeError1394,
 )
+from fw1394.engine.table import ANSWERS, SCREENS, Answer, Delivery, Outcome, Screen
 from fw1394.packets import (
     AckCode,
     AsyncPacket,

@@ -2,7 +2,7 @@
 
 A text file holds one packet per line as hex (spaces, ``0x`` quadlets and
 ``#`` comments allowed), as ``fw1394 decode`` reads them. Anything else is
-read as a capture through :mod:`fw1394.capture.sources` (fw1394 pcap/pcapng,
+read as a capture through :mod:`fw1394.capture.formats.sources` (fw1394 pcap/pcapng,
 Eth1394 UDP captures, nosy dumps, kernel logs); its asynchronous packets
 become the corpus, CRCs added where the source stripped them.
 """
@@ -13,6 +13,7 @@ from pathlib import Path
 
 from fw1394.packets import PacketError
 from fw1394.packets.asynchronous import decode_async, encode_async
+from fw1394.packets.hextext import HexTextError, hex_bytes
 
 #: Packets kept from one file at most (a long capture repeats itself).
 LIMIT = 10_000
@@ -53,8 +54,6 @@ def _is_hex_text(head: bytes) -> bool:
 
 
 def _hex_lines(path: Path) -> list[bytes]:
-    from fw1394.cli.common import CliError, hex_bytes
-
     packets = []
     for number, line in enumerate(path.read_text(errors="replace").splitlines(), 1):
         body = line.split("#", 1)[0].strip()
@@ -62,7 +61,7 @@ def _hex_lines(path: Path) -> list[bytes]:
             continue
         try:
             packets.append(hex_bytes(body))
-        except CliError as error:
+        except HexTextError as error:
             raise CorpusError(f"{path}:{number}: {error}") from None
         if len(packets) >= LIMIT:
             break
@@ -73,8 +72,8 @@ def _hex_lines(path: Path) -> list[bytes]:
 
 def _capture(path: Path) -> list[bytes]:
     try:
-        from fw1394.capture import sources
-        from fw1394.capture.record import RecordType
+        from fw1394.capture.formats import sources
+        from fw1394.capture.formats.record import RecordType
     except ImportError as error:  # the capture readers need numpy
         raise CorpusError(f"{path}: reading captures needs {error.name}") from None
     packets: list[bytes] = []

@@ -7,9 +7,9 @@ clock, so the reference model runs in lockstep and compares exactly.
 from __future__ import annotations
 
 from fw1394.engine import ResponderPolicy
+from fw1394.engine.defects import PACKET_DEFECTS, DefectiveResponder
 from fw1394.fuzz.reference import board
 from fw1394.fuzz.target import SILENCE, Observed, TargetCrash, Visibility, Wire
-from fw1394.node.defects import PACKET_DEFECTS, DefectiveResponder
 
 
 class InprocTarget:

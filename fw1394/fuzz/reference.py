@@ -18,9 +18,9 @@ from __future__ import annotations
 
 from enum import IntEnum
 
+from fw1394.boards import make_board
 from fw1394.engine import Reply, Responder, ResponderPolicy
-from fw1394.node.boards import make_board
-from fw1394.node.space import AddressSpace
+from fw1394.engine.space import AddressSpace
 from fw1394.packets import AsyncPacket
 
 #: The twin's clock: ``TWIN_RATE * now + TWIN_SHIFT`` (monotonic, and apart).

@@ -9,7 +9,7 @@ benchmark) can reach a node the way it reaches a board on a lab network:
 * Eth1394 framing: a request datagram in, a response datagram (packet and 8
   extra bytes) back for reads and locks, nothing for writes.
 
-It serves one node with :class:`~fw1394.node.defects.DefectiveResponder`, so
+It serves one node with :class:`~fw1394.engine.defects.DefectiveResponder`, so
 planted defects work here as in-process. Loopback addresses only.
 """
 
@@ -21,9 +21,9 @@ import socket
 import time
 
 from fw1394.engine import ResponderPolicy
+from fw1394.engine.defects import PACKET_DEFECTS, DefectiveResponder
 from fw1394.fuzz.reference import board
 from fw1394.fuzz.tunnel import tlabel_of
-from fw1394.node.defects import PACKET_DEFECTS, DefectiveResponder
 from fw1394.packets import WriteResponse
 from fw1394.packets.eth1394 import (
     CONTROL_WORD_SIZE,

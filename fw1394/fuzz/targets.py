@@ -2,7 +2,7 @@
 
 Target specifications:
 
-* ``inproc:BOARD``: a board emulator in this process (``fw1394.node.boards``
+* ``inproc:BOARD``: a board emulator in this process (``fw1394.boards``
   kinds, or ``memory``);
 * ``bus:NAME/NODE``: node NODE (a physical ID) of the virtual bus NAME;
 * ``udp:HOST[:PORT]``: a node behind a UDP tunnel, speaking fw1394's frames or,
@@ -13,6 +13,7 @@ Target specifications:
 
 from __future__ import annotations
 
+from fw1394.boards.registry import BOARDS, known_defects
 from fw1394.fuzz.clock import SimulatedClock, WallClock
 from fw1394.fuzz.contract import CONTRACTS
 from fw1394.fuzz.offsets import OffsetModel, offset_model
@@ -20,30 +21,9 @@ from fw1394.fuzz.reference import Reference
 from fw1394.fuzz.settings import DEFAULT_POLICIES, Settings, SettingsError
 from fw1394.fuzz.target import Target
 from fw1394.fuzz.trial import Trial
-from fw1394.node.boards import BOARDS
-from fw1394.node.boards.qla1 import BOARD_DEFECTS as QLA1_DEFECTS
-from fw1394.node.boards.snake2010 import BOARD_DEFECTS as SNAKE2010_DEFECTS
-from fw1394.node.defects import PACKET_DEFECTS
 
 SCHEMES = ("inproc", "bus", "udp", "rtl")
-KINDS = tuple(sorted({*BOARDS, "memory"}))
-#: Board-level defects by board kind (see docs/boards/).
-BOARD_DEFECTS: dict[str, frozenset[str]] = {
-    "qla1": QLA1_DEFECTS,
-    "snake2010": SNAKE2010_DEFECTS,
-    "snake2010-ztheta": SNAKE2010_DEFECTS,
-    "memory": frozenset(),
-}
-
-
-def known_defects(kind: str | None) -> dict[str, str]:
-    """Defect names a target of board ``kind`` accepts, with what each does."""
-    if kind is not None and kind.startswith("rtl:"):
-        return _rtl_defects(kind.removeprefix("rtl:"))
-    known = dict(PACKET_DEFECTS)
-    for name in sorted(BOARD_DEFECTS.get(kind or "", frozenset())):
-        known[name] = f"board defect of {kind} (docs/boards/)"
-    return known
+KINDS = tuple(sorted(BOARDS))
 
 
 def target_kind(settings: Settings) -> str | None:
@@ -171,13 +151,13 @@ def _rtl_model(spec: str) -> str | None:
         return None
 
 
-def _rtl_defects(spec: str) -> dict[str, str]:
+def rtl_defects(spec: str) -> dict[str, str]:
     """The RTL's planted defects, and those of the board serving its register bus."""
     from fw1394.rtl.defects import RTL_DEFECTS
 
     known = {name: f"RTL defect: {text}" for name, text in RTL_DEFECTS.items()}
     model = _rtl_model(spec)
-    for name in sorted(BOARD_DEFECTS.get(model or "", frozenset())):
+    for name in sorted(BOARDS[model].defects if model in BOARDS else ()):
         known[name] = f"board defect of {model} (docs/boards/)"
     return known
 
@@ -193,7 +173,8 @@ def _check_rtl(settings: Settings, spec: str) -> None:
         raise SettingsError(str(error)) from None
     if settings.policy is not None:
         raise SettingsError("--policy is for in-process targets; the design answers its own way")
-    served = BOARD_DEFECTS.get(portmap.model or "", frozenset()) if portmap.served else frozenset()
+    model = portmap.model if portmap.served else None
+    served = BOARDS[model].defects if model in BOARDS else frozenset()
     unknown = sorted(set(settings.defects) - RTL_DEFECTS.keys() - served)
     if unknown:
         raise SettingsError(

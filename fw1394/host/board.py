@@ -13,23 +13,13 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from fw1394.host.port import Port
-from fw1394.host.realtime import (
+from fw1394.boards.snake2010.rt_blocks import (
     RealtimeInputs,
     build_realtime_write,
     parse_realtime_block,
     realtime_read_length,
 )
-from fw1394.host.robot import RobotIO
-from fw1394.host.units import (
-    adc_to_unsigned,
-    current_feedback_gain,
-    float_to_words,
-    sign_extend,
-    split_eeprom_index,
-    words_to_float,
-)
-from fw1394.node.boards.snake2010_spec import (
+from fw1394.boards.snake2010.spec import (
     ADC_HALF_MASK,
     ADC_POT_SHIFT,
     DAC_MAX,
@@ -54,6 +44,16 @@ from fw1394.node.boards.snake2010_spec import (
     channel_register,
     pot_frame,
     status_write,
+)
+from fw1394.host.port import Port
+from fw1394.host.robot import RobotIO
+from fw1394.host.units import (
+    adc_to_unsigned,
+    current_feedback_gain,
+    float_to_words,
+    sign_extend,
+    split_eeprom_index,
+    words_to_float,
 )
 
 

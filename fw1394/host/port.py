@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from typing import Protocol
 
-from fw1394.node.space import TICKS_PER_SECOND, AddressSpace
+from fw1394.engine.space import TICKS_PER_SECOND, AddressSpace
 
 
 class Port(Protocol):

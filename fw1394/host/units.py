@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import struct
 
-from fw1394.node.boards.snake2010_spec import (
+from fw1394.boards.snake2010.spec import (
     ADC_BITS,
     DAC_MAX,
     DAC_MIDPOINT,

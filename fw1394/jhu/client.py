@@ -22,14 +22,7 @@ import socket
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from fw1394.jhu.addressing import (
-    MULTICAST_FIRMWARE,
-    Endpoint,
-    classful_broadcast,
-    offset_address,
-    require_loopback,
-)
-from fw1394.jhu.server import LOOPBACK_INTERFACE
+from fw1394.boards.qla1.eth_server import LOOPBACK_INTERFACE
 from fw1394.packets import (
     AsyncPacket,
     BlockReadRequest,
@@ -53,6 +46,13 @@ from fw1394.packets.eth1394 import (
     parse_response,
 )
 from fw1394.packets.fast import encode_packet
+from fw1394.transport.eth1394_addresses import (
+    MULTICAST_FIRMWARE,
+    Endpoint,
+    classful_broadcast,
+    offset_address,
+    require_loopback,
+)
 
 #: The host's own node ID in every request: bus 0x3FF, node 16.
 HOST_SOURCE_ID = 0xFFD0

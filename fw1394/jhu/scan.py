@@ -10,8 +10,8 @@ import enum
 import time
 from dataclasses import dataclass, field
 
+from fw1394.boards.qla1.regs import BoardRegister, ip_to_register
 from fw1394.jhu.client import MAX_BOARDS, EthUdpClient
-from fw1394.node.boards.qla1_regs import BoardRegister, ip_to_register
 from fw1394.packets.eth1394 import BROADCAST_NODE, HostNodeFlag
 
 #: Hardware versions the library accepts: 'QLA1', 'dRA1', 'DQLA', 'BCFG', 'TEST'.

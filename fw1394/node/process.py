@@ -16,8 +16,8 @@ from dataclasses import dataclass, field
 from types import FrameType
 
 from fw1394.engine import THESIS_FPGA, Responder, ResponderPolicy
-from fw1394.node.defects import DefectiveResponder
-from fw1394.node.space import AddressSpace
+from fw1394.engine.defects import DefectiveResponder
+from fw1394.engine.space import AddressSpace
 from fw1394.packets.fast import encode_packet
 from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig
@@ -51,7 +51,7 @@ class NodeOptions:
     timing: Timing | None = None
     faults: FaultConfig | None = None
     policy: ResponderPolicy = THESIS_FPGA
-    #: Planted packet-level bugs for the fuzzer (fw1394.node.defects); none normally.
+    #: Planted packet-level bugs for the fuzzer (fw1394.engine.defects); none normally.
     defects: frozenset[str] = frozenset()
 
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from fw1394.node.boards import BOARDS
+from fw1394.boards.registry import BOARDS
 
 STYLES = ("inout", "split-oe", "split-flag")
 ORDERS = ("msb", "lsb")
@@ -128,7 +128,7 @@ def parse(data: dict[str, Any], path: Path) -> PortMap:
     if not isinstance(registers_table, dict):
         raise PortMapError(f"{where}: [registers] must be a table")
     model = registers_table.get("model")
-    if model is not None and model not in {*BOARDS, "memory"}:
+    if model is not None and model not in BOARDS:
         raise PortMapError(f"{where}: unknown board kind {model!r} in [registers] model")
     bus = {k: v for k, v in registers_table.items() if k in REGISTER_SIGNALS}
     unknown = set(registers_table) - {*REGISTER_SIGNALS, "model", "addr_width", "own"}

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from contextlib import suppress
 
-from fw1394.node.space import TICKS_PER_SECOND, AddressSpace, SpaceError
+from fw1394.engine.space import TICKS_PER_SECOND, AddressSpace, SpaceError
 
 
 class RegisterServer:

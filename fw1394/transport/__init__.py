@@ -6,8 +6,7 @@
   the kernel filter that plays the link layer's address recognition.
 * :mod:`~fw1394.transport.membership`: bus resets, self-IDs, physical IDs (sans-IO).
 * :mod:`~fw1394.transport.station`: one member's plumbing (node or host).
-* :mod:`~fw1394.transport.host`, :mod:`~fw1394.transport.port`: the host side.
-* :mod:`~fw1394.transport.tap`: a promiscuous capture tap.
+* :mod:`~fw1394.transport.bus_host`, :mod:`~fw1394.transport.bus_port`: the host side.
 * :mod:`~fw1394.transport.launch`, :mod:`~fw1394.transport.supervisor`,
   :mod:`~fw1394.transport.runtime`: node processes in the background.
 

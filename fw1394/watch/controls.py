@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 
-from fw1394.node.boards.snake2010_spec import DAC_MAX, DAC_MIDPOINT
+from fw1394.boards.snake2010.spec import DAC_MAX, DAC_MIDPOINT
 from fw1394.watch.sampler import BOARD_ERRORS, WatchedBoard
 
 #: Motor-command change per +/- press: 256 codes = 9.8 mV of DAC, 78 mV at the motor.

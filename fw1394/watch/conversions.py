@@ -3,7 +3,7 @@
 The converter scales (ADC and DAC over 0..2.5 V, the 768 kHz period clock)
 are the board's own. Turning volts into millimetres, amperes and motor volts
 needs the motor and amplifier constants; the defaults are the emulator's
-:class:`~fw1394.node.boards.snake2010_physics.MotorConstants`, so the figures
+:class:`~fw1394.boards.snake2010.physics.MotorConstants`, so the figures
 agree with what the emulated motors do.
 """
 
@@ -11,9 +11,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from fw1394.host.units import current_feedback_gain
-from fw1394.node.boards.snake2010_physics import MotorConstants
-from fw1394.node.boards.snake2010_spec import (
+from fw1394.boards.snake2010.physics import MotorConstants
+from fw1394.boards.snake2010.spec import (
     ADC_BITS,
     CONVERTER_FULL_SCALE_VOLTS,
     CONVERTER_MIDPOINT_VOLTS,
@@ -24,7 +23,8 @@ from fw1394.node.boards.snake2010_spec import (
     PERIOD_SATURATED,
     WATCHDOG_PRESCALER,
 )
-from fw1394.node.space import TICKS_PER_SECOND
+from fw1394.engine.space import TICKS_PER_SECOND
+from fw1394.host.units import current_feedback_gain
 
 ADC_STEPS = 1 << ADC_BITS
 DAC_STEPS = 1 << DAC_BITS

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from fw1394.node.boards import make_board
-from fw1394.node.boards.snake2010 import Snake2010Board
+from fw1394.boards import make_board
+from fw1394.boards.snake2010.board import Snake2010Board
 from fw1394.transport.config import BusNameError
 from fw1394.transport.runtime import bus_dir, read_nodes
 from fw1394.transport.wire import MemberInfo

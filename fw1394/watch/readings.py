@@ -12,8 +12,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from fw1394.host import Board
-from fw1394.node.boards.snake2010_spec import (
+from fw1394.boards.snake2010.spec import (
     DAC_CODE_MASK,
     DAC_READ_LIMIT_SHIFT,
     OUTPUT_O1,
@@ -24,6 +23,7 @@ from fw1394.node.boards.snake2010_spec import (
     STATUS_FAULT_SHIFT,
     STATUS_WATCHDOG_TIMEOUT,
 )
+from fw1394.host import Board
 
 
 @dataclass(frozen=True)

@@ -10,16 +10,16 @@ every refresh.
 
 from __future__ import annotations
 
-from fw1394.host import Board, BoardError, Port, UnknownNodeError
-from fw1394.host.realtime import BlockSizeError
-from fw1394.node.boards.snake2010_spec import (
+from fw1394.boards.snake2010.rt_blocks import BlockSizeError
+from fw1394.boards.snake2010.spec import (
     REG_WATCHDOG_PERIOD,
     WATCHDOG_PERIOD_MASK,
     Device,
     channel_register,
 )
-from fw1394.node.space import SpaceError
-from fw1394.transport.host import BusError, TransactionError
+from fw1394.engine.space import SpaceError
+from fw1394.host import Board, BoardError, Port, UnknownNodeError
+from fw1394.transport.bus_host import BusError, TransactionError
 from fw1394.watch.readings import BoardReading, PotSettings, reading_of
 
 #: What a refresh can run into with a board that is gone or misbehaving; the live

@@ -1,0 +1,8 @@
+"""Board kinds: one package each (``snake2010``, ``qla1``, ``memory``), one registry.
+
+See :mod:`fw1394.boards.registry` and ``docs/architecture.md`` (adding a board kind).
+"""
+
+from fw1394.boards.registry import BOARDS, BoardKind, board_kind, make_board
+
+__all__ = ["BOARDS", "BoardKind", "board_kind", "make_board"]

@@ -1,0 +1,1 @@
+"""boards/memory."""

@@ -1,0 +1,408 @@
+"""QLA1: a JHU FPGA1394 + QLA motor-controller board as an address space.
+
+The personality answers what the JHU host library (Amp1394) asks during
+start-up and in its real-time loop: the board registers, 4 motor channels,
+the real-time read and write blocks of firmware revisions 1..9, the
+watchdog, hub space and the CSR / configuration-ROM window. Offsets are
+decoded like the firmware does: bits 15..0 as a quadlet index, except in
+the CSR window 0xFFFF_F000_0xxx, which is byte-addressed. Unmapped reads
+return 0 and writes there vanish: like the real board, this one never
+refuses a request (only offsets beyond 48 bits and values beyond 32 bits,
+which no packet can carry, raise).
+
+``defects`` plants deliberate misbehaviours for negative tests and the
+fuzzer; the names this board acts on are in :data:`BOARD_DEFECTS`, other
+names are left for the layers that receive the same set.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from fw1394.boards.qla1 import rt_blocks as rt
+from fw1394.boards.qla1.channels import MotorChannel
+from fw1394.boards.qla1.config_rom import CSR_BYTE_MASK, CsrSpace, build_config_rom, in_csr_window
+from fw1394.boards.qla1.hub import HubState
+from fw1394.boards.qla1.phy_window import PhyInterface
+from fw1394.boards.qla1.regs import (
+    BLOCK_INDEX_MASK,
+    CHANNELS,
+    ETH_STATUS_BY_FPGA_VERSION,
+    HUB_MEMORY_BASE,
+    HUB_QUERY,
+    IP_UNASSIGNED,
+    MAX_BOARD_ID,
+    QLA1_HARDWARE_VERSION,
+    REGISTER_INDEX_MASK,
+    SPACE_SHIFT,
+    BoardRegister,
+    ChannelRegister,
+    Space,
+    ip_to_register,
+)
+from fw1394.boards.qla1.status import BoardControl
+from fw1394.boards.qla1.watchdog import Watchdog
+from fw1394.engine.space import AddressError, DataError
+
+#: STATUS writes are stored and read back verbatim (breaks the board id).
+DEFECT_STATUS_WRITE_STORED = "status-write-stored"
+#: The watchdog never times out.
+DEFECT_WATCHDOG_DISABLED = "watchdog-disabled"
+#: Real-time block writes are applied whatever board id they carry.
+DEFECT_RT_WRITE_ANY_BOARD = "rt-write-any-board"
+#: HARDWARE_VERSION reads byte-swapped ('1ALQ'), as a little-endian slip would.
+DEFECT_HW_VERSION_SWAPPED = "hw-version-swapped"
+#: Unmapped offsets raise AddressError instead of reading 0.
+DEFECT_UNMAPPED_ADDRESS_ERROR = "unmapped-address-error"
+BOARD_DEFECTS = frozenset(
+    {
+        DEFECT_STATUS_WRITE_STORED,
+        DEFECT_WATCHDOG_DISABLED,
+        DEFECT_RT_WRITE_ANY_BOARD,
+        DEFECT_HW_VERSION_SWAPPED,
+        DEFECT_UNMAPPED_ADDRESS_ERROR,
+    }
+)
+
+OFFSET_LIMIT = 1 << 48
+#: Two amplifier temperatures (bits 15..8 and 7..0) in the board's raw units.
+TEMPERATURE_READING = 0x3C3C
+
+
+class Qla1Board:
+    """One QLA board (hardware version 'QLA1') on the virtual bus."""
+
+    def __init__(
+        self,
+        *,
+        board_id: int,
+        firmware: int = 8,
+        fpga_version: int = 3,
+        ip_address: str | None = None,
+        defects: frozenset[str] = frozenset(),
+        git_description: int = 0,
+        physical_id: int = 0,
+    ) -> None:
+        if not 0 <= board_id <= MAX_BOARD_ID:
+            raise ValueError(f"board_id: {board_id} is not 0..{MAX_BOARD_ID}")
+        if firmware < 1:
+            raise ValueError(f"firmware: {firmware} is not a firmware revision (1 or more)")
+        if fpga_version not in ETH_STATUS_BY_FPGA_VERSION:
+            raise ValueError(f"fpga_version: {fpga_version} is not 1, 2 or 3")
+        self.board_id = board_id
+        self.firmware = firmware
+        self.fpga_version = fpga_version
+        self.defects = frozenset(defects)
+        self.git_description = git_description & 0xFFFFFFFF
+        self._initial_ip = IP_UNASSIGNED if ip_address is None else ip_to_register(ip_address)
+        self._node_id = physical_id & 0x3F
+        self._now = 0
+        self._power_up()
+        # Readers look attributes up on each call, so they survive a reboot's fresh state.
+        self._board_readers = self._board_register_readers()
+
+    def _power_up(self) -> None:
+        """Everything a reboot puts back (the clock keeps running)."""
+        self.control = BoardControl()
+        self.watchdog = Watchdog(last_clear_tick=self._now)
+        self.channels = [MotorChannel(number, self.firmware) for number in range(1, CHANNELS + 1)]
+        self.phy = PhyInterface(node_id=self._node_id)
+        self.hub = HubState(self.board_id)
+        has_ethernet = self.fpga_version >= 2
+        self.csr = CsrSpace(build_config_rom(self.board_id, self.firmware, has_ethernet))
+        self.csr.node_id = self._node_id
+        self.ip_register = self._initial_ip
+        self._stored_status: int | None = None
+        self._rt_reference_tick = self._now
+
+    # -- things outside the AddressSpace protocol ---------------------------------------
+
+    @property
+    def now(self) -> int:
+        """The board's clock, in 49.152 MHz ticks."""
+        return self._now
+
+    @property
+    def rt_read_quadlets(self) -> int:
+        return rt.rt_read_quadlets(self.firmware)
+
+    @property
+    def rt_write_quadlets(self) -> int:
+        return rt.rt_write_quadlets(self.firmware)
+
+    def set_physical_id(self, physical_id: int) -> None:
+        """The node number the bus gave this node (PHY register 0, CSR NODE_IDS)."""
+        self._node_id = physical_id & 0x3F
+        self.phy.node_id = self._node_id
+        self.csr.node_id = self._node_id
+
+    def broadcast_read_data(self) -> bytes | None:
+        """Hub memory once every queried board has reported, else None.
+
+        In Ethernet-only mode this is the data the hub board sends the host
+        unasked after a broadcast query (as a block read response).
+        """
+        if not self.hub.complete:
+            return None
+        return _quadlets_to_bytes(self.hub.image(self._now))
+
+    # -- AddressSpace -------------------------------------------------------------------
+
+    def set_time(self, ticks: int) -> None:
+        if ticks < self._now:
+            raise ValueError(f"ticks: {ticks} is before the board's time {self._now}")
+        self._now = ticks
+        if DEFECT_WATCHDOG_DISABLED not in self.defects and self.watchdog.advance(ticks):
+            self.control.disable_all_amps()
+
+    def read_quadlet(self, offset: int) -> int:
+        _check_offset(offset)
+        if in_csr_window(offset):
+            return self.csr.read(offset & CSR_BYTE_MASK)
+        return self._read_index(offset & REGISTER_INDEX_MASK)
+
+    def write_quadlet(self, offset: int, value: int) -> None:
+        _check_offset(offset)
+        if not 0 <= value <= 0xFFFFFFFF:
+            raise DataError(f"value: {value:#x} does not fit in a quadlet")
+        self.watchdog.clear_count(self._now)
+        if in_csr_window(offset):
+            self.csr.write(offset & CSR_BYTE_MASK, value)
+            return
+        self._write_index(offset & REGISTER_INDEX_MASK, value)
+
+    def read_block(self, offset: int, length: int) -> bytes:
+        _check_offset(offset)
+        if length < 0:
+            raise DataError(f"length: {length} is negative")
+        count = -(-length // 4)
+        if in_csr_window(offset):
+            start = offset & CSR_BYTE_MASK
+            words = [self.csr.read((start + 4 * n) & CSR_BYTE_MASK) for n in range(count)]
+        elif _space(offset & REGISTER_INDEX_MASK) == Space.MAIN:
+            words = self._rt_block_read(offset & REGISTER_INDEX_MASK, count)
+        else:
+            words = [self._read_index(index) for index in self._block_indices(offset, count)]
+        return _quadlets_to_bytes(words)[:length]
+
+    def write_block(self, offset: int, data: bytes) -> None:
+        _check_offset(offset)
+        # Only whole quadlets reach the registers, as in the firmware.
+        words = [int.from_bytes(data[n : n + 4], "big") for n in range(0, len(data) - 3, 4)]
+        if not words:
+            return
+        if in_csr_window(offset):
+            self.watchdog.clear_count(self._now)
+            start = offset & CSR_BYTE_MASK
+            for n, value in enumerate(words):
+                self.csr.write((start + 4 * n) & CSR_BYTE_MASK, value)
+            return
+        index = offset & REGISTER_INDEX_MASK
+        space = _space(index)
+        if space == Space.MAIN:
+            self._rt_block_write(index, words)
+            return
+        self.watchdog.clear_count(self._now)
+        if space == Space.HUB and index == HUB_MEMORY_BASE:
+            self.hub.store_broadcast(words, self._now)
+            return
+        for target, value in zip(self._block_indices(offset, len(words)), words, strict=True):
+            self._write_index(target, value)
+
+    # -- decoding -----------------------------------------------------------------------
+
+    @staticmethod
+    def _block_indices(offset: int, count: int) -> list[int]:
+        # Block transfers step bits 11..0 and keep the space nibble (they wrap within it).
+        index = offset & REGISTER_INDEX_MASK
+        space_bits = index & ~BLOCK_INDEX_MASK & REGISTER_INDEX_MASK
+        return [space_bits | ((index + n) & BLOCK_INDEX_MASK) for n in range(count)]
+
+    def _unmapped(self, index: int) -> int:
+        if DEFECT_UNMAPPED_ADDRESS_ERROR in self.defects:
+            raise AddressError(f"offset: nothing at quadlet index {index:#06x}")
+        return 0
+
+    def _read_index(self, index: int) -> int:
+        space = _space(index)
+        if space == Space.MAIN:
+            return self._read_main(index)
+        if space == Space.HUB:
+            return self.hub.read_register(index, self._now)
+        return self._unmapped(index)
+
+    def _write_index(self, index: int, value: int) -> None:
+        space = _space(index)
+        if space == Space.MAIN:
+            self._write_main(index, value)
+        elif space == Space.HUB and index == HUB_QUERY:
+            self._broadcast_query(value)
+        # Other spaces (PROM, Ethernet debug, data buffer...) are not modelled: writes vanish.
+
+    def _read_main(self, index: int) -> int:
+        channel, register = (index >> 4) & 0xF, index & 0xF
+        if index & 0x0F00 or channel > CHANNELS:
+            return self._unmapped(index)
+        if channel == 0:
+            return self._read_board_register(register)
+        return self.channels[channel - 1].read(register, self.control.amp_on(channel))
+
+    def _write_main(self, index: int, value: int) -> None:
+        channel, register = (index >> 4) & 0xF, index & 0xF
+        if index & 0x0F00 or channel > CHANNELS:
+            return
+        if channel == 0:
+            self._write_board_register(register, value)
+            return
+        enable = self.channels[channel - 1].write(register, value)
+        if enable is not None:
+            self.control.request_amp(channel, enable)
+
+    # -- board registers ----------------------------------------------------------------
+
+    def _status(self) -> int:
+        if self._stored_status is not None:
+            return self._stored_status
+        return self.control.status(self.board_id, self.watchdog.timed_out)
+
+    def _board_register_readers(self) -> dict[int, Callable[[], int]]:
+        return {
+            BoardRegister.STATUS: self._status,
+            BoardRegister.FW_PHY_REQ: lambda: self.phy.request,
+            BoardRegister.FW_PHY_RESP: lambda: self.phy.response,
+            BoardRegister.WATCHDOG: lambda: self.watchdog.register_value(),
+            BoardRegister.HARDWARE_VERSION: self._hardware_version,
+            BoardRegister.TEMPERATURE: lambda: TEMPERATURE_READING,
+            BoardRegister.DIGITAL_OUTPUT: lambda: self.control.digital_outputs,
+            BoardRegister.FIRMWARE_VERSION: lambda: self.firmware,
+            BoardRegister.DIGITAL_INPUT: lambda: self.control.digital_input(),
+            BoardRegister.IP_ADDRESS: self._ip_register_value,
+            BoardRegister.ETH_STATUS: lambda: ETH_STATUS_BY_FPGA_VERSION[self.fpga_version],
+            BoardRegister.GIT_DESCRIPTION: lambda: self.git_description,
+        }
+
+    def _read_board_register(self, register: int) -> int:
+        reader = self._board_readers.get(register)
+        # PROM, Dallas and I/O-expander interfaces are not modelled: they read as idle (0).
+        return reader() if reader is not None else 0
+
+    def _hardware_version(self) -> int:
+        if DEFECT_HW_VERSION_SWAPPED in self.defects:
+            return int.from_bytes(QLA1_HARDWARE_VERSION.to_bytes(4, "big"), "little")
+        return QLA1_HARDWARE_VERSION
+
+    def _ip_register_value(self) -> int:
+        # FPGA V1 has no Ethernet, hence no IP register.
+        return self.ip_register if self.fpga_version >= 2 else 0
+
+    def _write_board_register(self, register: int, value: int) -> None:
+        if register == BoardRegister.STATUS:
+            self._write_status(value)
+        elif register == BoardRegister.FW_PHY_REQ:
+            self.phy.write_request(value)
+        elif register == BoardRegister.FW_PHY_RESP:
+            self.phy.write_response(value)
+        elif register == BoardRegister.WATCHDOG:
+            self.watchdog.write_register(value)
+        elif register == BoardRegister.DIGITAL_OUTPUT:
+            self.control.write_digital_outputs(value)
+        elif register == BoardRegister.IP_ADDRESS and self.fpga_version >= 2:
+            self.ip_register = self._ip_with_board_id(value)
+        # ETH_STATUS control bits (clear errors, PHY reset...) have nothing to act on here.
+
+    def _ip_with_board_id(self, value: int) -> int:
+        # Firmware 9 gives each board its own address: board id added to the last octet.
+        if self.firmware < 9 or value == IP_UNASSIGNED:
+            return value
+        last_octet = ((value >> 24) + self.board_id) & 0xFF
+        return (value & 0x00FFFFFF) | last_octet << 24
+
+    def _write_status(self, value: int) -> None:
+        if DEFECT_STATUS_WRITE_STORED in self.defects:
+            self._stored_status = value
+        command = self.control.command(value)
+        if command.asks_for_power:
+            self.watchdog.acknowledge(self._now)
+        if command.reboot:
+            self._power_up()
+            return
+        self._enforce_watchdog()
+
+    def _enforce_watchdog(self) -> None:
+        # While the timeout flag is up, the firmware keeps every amplifier disabled.
+        if self.watchdog.timed_out:
+            self.control.disable_all_amps()
+
+    # -- real-time blocks and hub ---------------------------------------------------------
+
+    def _take_timestamp(self) -> int:
+        """Ticks since the previous real-time read or broadcast query, minus 1."""
+        elapsed = self._now - self._rt_reference_tick
+        self._rt_reference_tick = self._now
+        return (max(elapsed, 1) - 1) & 0xFFFFFFFF
+
+    def _rt_block(self) -> list[int]:
+        amp_on = [self.control.amp_on(channel.number) for channel in self.channels]
+        sample = rt.RtSample(
+            timestamp=self._take_timestamp(),
+            status=self._status(),
+            digital_input=self.control.digital_input(),
+            # Bits 31..16 of the temperature quadlet carry data-collection status: idle.
+            temperature=TEMPERATURE_READING,
+            adc=[ch.adc(on) for ch, on in zip(self.channels, amp_on, strict=True)],
+            encoder_position=[ch.encoder_data() for ch in self.channels],
+            encoder_period=[ch.encoder_period() for ch in self.channels],
+            encoder_qtr1=[0] * CHANNELS,
+            encoder_qtr5=[0] * CHANNELS,
+            encoder_running=[0] * CHANNELS,
+            motor_status=[MotorChannel.motor_status(on) for on in amp_on],
+        )
+        return rt.rt_read_block(sample, self.firmware)
+
+    def _rt_block_read(self, index: int, count: int) -> list[int]:
+        block = self._rt_block()
+        words = []
+        for target in self._block_indices(index, count):
+            # A MAIN-space block read indexes the real-time block with offset bits 5..0.
+            position = target & rt.RT_INDEX_MASK
+            words.append(block[position] if position < len(block) else 0)
+        return words
+
+    def _rt_block_write(self, index: int, words: list[int]) -> None:
+        board = None if DEFECT_RT_WRITE_ANY_BOARD in self.defects else self.board_id
+        if self.firmware >= 8:
+            write = rt.decode_rev8_write(words, index, board)
+            feeds = bool(write.dac_commands or write.control)
+        elif self.firmware == 7:
+            write = rt.decode_rev7_write(words, board)
+            feeds = bool(write.dac_commands or write.control)
+        else:
+            write = rt.decode_old_write(words)
+            feeds = rt.old_write_feeds_watchdog(write)
+        if feeds:
+            self.watchdog.clear_count(self._now)
+        for channel, value in write.dac_commands:
+            # The translator aims at register DAC of that channel, whatever it is.
+            self._write_main((channel << 4) | ChannelRegister.DAC, value)
+        for value in write.control:
+            self._write_status(value)
+
+    def _broadcast_query(self, value: int) -> None:
+        self.hub.query(value, self._now)
+        if self.hub.wants(self.board_id):
+            self.hub.store(self.board_id, self.hub.sequence, self._rt_block(), self._now)
+        else:
+            self._take_timestamp()
+
+
+def _check_offset(offset: int) -> None:
+    if not 0 <= offset < OFFSET_LIMIT:
+        raise AddressError(f"offset: {offset:#x} is not a 48-bit 1394 offset")
+
+
+def _space(index: int) -> int:
+    return index >> SPACE_SHIFT
+
+
+def _quadlets_to_bytes(words: list[int]) -> bytes:
+    return b"".join(word.to_bytes(4, "big") for word in words)

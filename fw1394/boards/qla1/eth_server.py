@@ -1,0 +1,193 @@
+"""A :class:`~fw1394.boards.qla1.rack.Rack` on loopback UDP sockets, as the real host sees boards.
+
+Sockets (all on 127.0.0.0/8, all with SO_REUSEADDR so several servers and
+board processes can share the port):
+
+* one unicast socket per cabled board, bound to the address the host sends
+  that board's requests to (the base address before firmware 9, base + board
+  ID from firmware 9 on); replies leave through it, from port 1394 like the
+  FPGA's;
+* one socket bound to the classful broadcast address of the base
+  (127.255.255.255), for the host's broadcasts;
+* from firmware 9 on, one socket bound to 224.0.0.100 and joined to it on
+  loopback only, for the host's multicasts. Because a real host sends those
+  through its routing table, the server refuses firmware >= 9 unless that
+  route is on ``lo`` (a network namespace with ``224.0.0.0/4 dev lo``).
+
+Nothing is ever sent to an address outside 127.0.0.0/8.
+"""
+
+from __future__ import annotations
+
+import select
+import socket
+import time
+from dataclasses import dataclass, field
+from ipaddress import IPv4Address
+
+from fw1394.boards.qla1.ethernet import Reply, datagram
+from fw1394.boards.qla1.rack import Rack
+from fw1394.packets.eth1394 import MULTICAST_GROUP
+from fw1394.transport.eth1394_addresses import (
+    LOOPBACK_NETWORK,
+    MULTICAST_FIRMWARE,
+    AddressRefusedError,
+    Endpoint,
+    board_address,
+    classful_broadcast,
+    multicast_route_check,
+    require_loopback,
+)
+
+MAX_DATAGRAM = 65_535
+LOOPBACK_INTERFACE = "127.0.0.1"
+
+
+class MulticastRefusedError(AddressRefusedError):
+    """Firmware >= 9 outside a namespace whose multicast route is on loopback."""
+
+
+def open_udp(address: str, port: int) -> socket.socket:
+    """A non-blocking UDP socket bound to ``address:port``, shareable with other processes."""
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        sock.bind((address, port))
+        sock.setblocking(False)
+    except OSError:
+        sock.close()
+        raise
+    return sock
+
+
+def join_loopback_multicast(sock: socket.socket) -> None:
+    """Join 224.0.0.100 on the loopback interface only, and never send multicast off it."""
+    group = socket.inet_aton(MULTICAST_GROUP) + socket.inet_aton(LOOPBACK_INTERFACE)
+    sock.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP, group)
+    sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_IF, socket.inet_aton(LOOPBACK_INTERFACE))
+    sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, 0)
+
+
+def check_multicast_allowed(firmware: int) -> None:
+    """Refuse a personality that makes a real host multicast off this machine."""
+    if firmware < MULTICAST_FIRMWARE:
+        return
+    problem = multicast_route_check()
+    if problem is not None:
+        raise MulticastRefusedError(f"firmware {firmware}: {problem}")
+
+
+def send_loopback(sock: socket.socket, payload: bytes, address: tuple[str, int]) -> bool:
+    """Send only to 127.0.0.0/8; False when the address was refused or the send failed."""
+    if IPv4Address(address[0]) not in LOOPBACK_NETWORK:
+        return False
+    try:
+        sock.sendto(payload, address)
+    except OSError:
+        return False
+    return True
+
+
+@dataclass
+class ServerStats:
+    received: int = 0
+    sent: int = 0
+    refused: int = 0
+
+
+@dataclass
+class Eth1394Server:
+    """Serve ``rack`` at ``endpoint`` (the server IP the host is given, and the port)."""
+
+    rack: Rack
+    endpoint: Endpoint = field(default_factory=Endpoint)
+    stats: ServerStats = field(default_factory=ServerStats)
+
+    def __post_init__(self) -> None:
+        base = require_loopback(self.endpoint.host)
+        check_multicast_allowed(self.rack.firmware)
+        self.epoch = time.monotonic()
+        self._unicast: dict[int, socket.socket] = {}
+        self._targets: dict[socket.socket, list[int]] = {}
+        self._running = True
+        try:
+            port = self.endpoint.port
+            for index, port_model in self.rack.ports:
+                address = board_address(base, port_model.board.board_id, self.rack.firmware)
+                sock = open_udp(require_loopback(address), port)
+                self._unicast[index] = sock
+                self._targets[sock] = [index]
+            everyone = [index for index, _ in self.rack.ports]
+            self._targets[open_udp(classful_broadcast(base), port)] = everyone
+            if self.rack.firmware >= MULTICAST_FIRMWARE:
+                group = open_udp(MULTICAST_GROUP, port)
+                self._targets[group] = everyone
+                join_loopback_multicast(group)
+        except OSError:
+            self.close()
+            raise
+
+    @property
+    def addresses(self) -> list[str]:
+        """``ip:port`` of every socket (for logs)."""
+        return [f"{host}:{port}" for host, port in (s.getsockname() for s in self._targets)]
+
+    def now(self) -> float:
+        return time.monotonic() - self.epoch
+
+    def step(self, timeout: float) -> None:
+        """Wait at most ``timeout`` s for datagrams; answer them and any timers due."""
+        due = self.rack.next_deadline()
+        if due is not None:
+            timeout = max(0.0, min(timeout, due - self.now()))
+        readable, _, _ = select.select(list(self._targets), [], [], timeout)
+        replies: list[tuple[int, Reply]] = []
+        for sock in readable:
+            replies += self._drain(sock)
+        replies += self.rack.poll(self.now())
+        processed = self.now()
+        for index, reply in replies:
+            self._send(index, reply, processed)
+
+    def _drain(self, sock: socket.socket) -> list[tuple[int, Reply]]:
+        replies: list[tuple[int, Reply]] = []
+        while True:
+            try:
+                payload, sender = sock.recvfrom(MAX_DATAGRAM)
+            except (BlockingIOError, InterruptedError):
+                return replies
+            self.stats.received += 1
+            now = self.now()
+            for index in self._targets[sock]:
+                replies += self.rack.receive(index, payload, sender, now)
+
+    def _send(self, index: int, reply: Reply, processed: float) -> None:
+        payload = datagram(reply, processed, self.now())
+        if send_loopback(self._unicast[index], payload, reply.address):
+            self.stats.sent += 1
+        else:
+            self.stats.refused += 1
+
+    def serve_forever(self) -> None:
+        while self._running:
+            self.step(0.1)
+
+    def serve_for(self, seconds: float) -> None:
+        limit = time.monotonic() + seconds
+        while self._running and time.monotonic() < limit:
+            self.step(min(0.05, max(0.0, limit - time.monotonic())))
+
+    def stop(self) -> None:
+        self._running = False
+
+    def close(self) -> None:
+        for sock in self._targets:
+            sock.close()
+        self._targets.clear()
+        self._unicast.clear()
+
+    def __enter__(self) -> Eth1394Server:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,128 @@
+"""What a JHU board does on its FireWire side beyond answering requests.
+
+Two firmware behaviours the engine's :class:`~fw1394.engine.Responder` has no
+notion of live here:
+
+* the broadcast query: a quadlet write to 0x1800 (broadcast, or to node 0)
+  is taken by every board, and each board named in the query's mask then
+  broadcasts its real-time block (a block write to 0xFFFF_FF00_1000, marked
+  with priority 0xA) for the hub to collect (jhu-eth1394.md §4.8);
+* one clock per board: the Ethernet and FireWire paths of a board share
+  one responder, and :class:`ClockedBoard` lets either of them move the
+  board's time forward without ever moving it back.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+from fw1394.boards.qla1.board import Qla1Board
+from fw1394.boards.qla1.regs import HUB_MEMORY_BASE, HUB_QUERY, REGISTER_INDEX_MASK
+from fw1394.packets import AsyncPacket, BlockWriteRequest, QuadletWriteRequest
+
+BROADCAST_ID = 0xFFFF
+LOCAL_BUS_IDS = 0xFFC0
+#: Offset of the hub-data broadcast: hub memory, seen through the upper address bits.
+HUB_BROADCAST_OFFSET = 0xFFFF_FF00_0000 | HUB_MEMORY_BASE
+#: The priority field the firmware sets on its own hub-data broadcasts.
+HUB_BROADCAST_PRIORITY = 0xA
+BROADCAST_NODE = 0x3F
+
+
+class FireWireState(Protocol):
+    """What a board's Ethernet path needs to know of its FireWire bus."""
+
+    @property
+    def node_id(self) -> int:
+        """The board's 6-bit physical ID."""
+        ...
+
+    @property
+    def generation(self) -> int:
+        """Bus generation (the firmware counts bus resets in 8 bits)."""
+        ...
+
+    @property
+    def resetting(self) -> bool:
+        """A bus reset is in progress."""
+        ...
+
+
+class NoFireWire:
+    """A board with no FireWire cable (Ethernet-only mode): node 0, generation 0."""
+
+    node_id = 0
+    generation = 0
+    resetting = False
+
+
+class ClockedBoard:
+    """A :class:`Qla1Board` whose clock only moves forward, whoever sets it.
+
+    The engine's responder keeps its own idea of the last time it set; a
+    board served by two paths (or read between requests) would otherwise be
+    asked to go back in time, which it refuses.
+    """
+
+    def __init__(self, board: Qla1Board) -> None:
+        self.board = board
+
+    def set_time(self, ticks: int) -> None:
+        if ticks > self.board.now:
+            self.board.set_time(ticks)
+
+    def read_quadlet(self, offset: int) -> int:
+        return self.board.read_quadlet(offset)
+
+    def write_quadlet(self, offset: int, value: int) -> None:
+        self.board.write_quadlet(offset, value)
+
+    def read_block(self, offset: int, length: int) -> bytes:
+        return self.board.read_block(offset, length)
+
+    def write_block(self, offset: int, data: bytes) -> None:
+        self.board.write_block(offset, data)
+
+
+def is_hub_query(packet: AsyncPacket) -> bool:
+    """A quadlet write to 0x1800: the broadcast query (only offset bits 15..0 count)."""
+    return (
+        isinstance(packet, QuadletWriteRequest) and packet.offset & REGISTER_INDEX_MASK == HUB_QUERY
+    )
+
+
+def query_reaches_every_node(packet: AsyncPacket) -> bool:
+    """The firmware takes a query sent to node 0 as if it were broadcast."""
+    return is_hub_query(packet) and getattr(packet, "destination_node", None) in (
+        0,
+        BROADCAST_NODE,
+    )
+
+
+def hub_broadcast(board: Qla1Board, node_id: int) -> BlockWriteRequest | None:
+    """The block ``board`` broadcasts after a query naming it, or None.
+
+    Data: ``{sequence 31..16, quadlet count 7..0}``, then the real-time block
+    the board sampled when the query arrived.
+    """
+    hub = board.hub
+    own = hub.blocks.get(board.board_id)
+    if own is None or own.sequence != hub.sequence:
+        return None
+    first = (hub.sequence & 0xFFFF) << 16 | len(own.quadlets) & 0xFF
+    words = (first, *own.quadlets)
+    return BlockWriteRequest(
+        destination_id=BROADCAST_ID,
+        source_id=LOCAL_BUS_IDS | node_id & BROADCAST_NODE,
+        tlabel=0,
+        priority=HUB_BROADCAST_PRIORITY,
+        offset=HUB_BROADCAST_OFFSET,
+        data=b"".join(word.to_bytes(4, "big") for word in words),
+    )
+
+
+def broadcast_sequence(packet: BlockWriteRequest) -> int | None:
+    """The query sequence a hub-data broadcast answers, or None if it is not one."""
+    if packet.offset & REGISTER_INDEX_MASK != HUB_MEMORY_BASE or len(packet.data) < 4:
+        return None
+    return int.from_bytes(packet.data[:4], "big") >> 16

@@ -1,0 +1,193 @@
+"""Several QLA boards in one process: an in-process FireWire bus and their Ethernet ports.
+
+Board ``n`` of the rack has physical ID ``n`` on the in-process bus. Which
+boards have an Ethernet port depends on the firmware, as on a real setup:
+before firmware 9 only the hub (board 0 of the rack) is cabled to the host
+and the others are reached through it over FireWire (bridge mode); from
+firmware 9 on every board has its own address, the first being the hub
+(the board nearest the host). Everything is synchronous: a forwarded request
+is answered, and a hub broadcast delivered, before :meth:`Rack.receive`
+returns.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from fw1394.boards.qla1.board import Qla1Board
+from fw1394.boards.qla1.ethernet import (
+    Action,
+    EthernetPort,
+    Forward,
+    HostAddress,
+    HubBroadcast,
+    Reply,
+)
+from fw1394.boards.qla1.firewire import (
+    BROADCAST_NODE,
+    LOCAL_BUS_IDS,
+    ClockedBoard,
+    hub_broadcast,
+    is_hub_query,
+    query_reaches_every_node,
+)
+from fw1394.engine import JHU_FIRMWARE, Responder
+from fw1394.packets import BlockWriteRequest, Request, Response
+from fw1394.packets.fast import encode_packet
+from fw1394.transport.eth1394_addresses import MULTICAST_FIRMWARE
+
+
+@dataclass
+class BusState:
+    """Generation and reset flag of the in-process FireWire bus."""
+
+    generation: int = 0
+    resetting: bool = False
+
+
+class RackLink:
+    """One board's view of the in-process bus (a :class:`FireWireState`)."""
+
+    def __init__(self, bus: BusState, node_id: int) -> None:
+        self._bus = bus
+        self.node_id = node_id
+
+    @property
+    def generation(self) -> int:
+        return self._bus.generation
+
+    @property
+    def resetting(self) -> bool:
+        return self._bus.resetting
+
+
+@dataclass
+class RackBoard:
+    board: Qla1Board
+    responder: Responder
+    port: EthernetPort | None
+
+    @property
+    def node_id(self) -> int:
+        return self.responder.node_id & BROADCAST_NODE
+
+
+class Rack:
+    """Boards ``board_ids`` (in physical-ID order) with ``firmware`` and ``fpga_version``."""
+
+    def __init__(
+        self,
+        board_ids: Sequence[int],
+        *,
+        firmware: int = 8,
+        fpga_version: int = 3,
+        git_description: int = 0,
+    ) -> None:
+        if not board_ids:
+            raise ValueError("a rack needs at least one board")
+        if len(set(board_ids)) != len(board_ids):
+            raise ValueError(f"board IDs {list(board_ids)} repeat")
+        self.firmware = firmware
+        self.bus = BusState()
+        self.members: list[RackBoard] = []
+        for node, board_id in enumerate(board_ids):
+            board = Qla1Board(
+                board_id=board_id,
+                firmware=firmware,
+                fpga_version=fpga_version,
+                git_description=git_description,
+                physical_id=node,
+            )
+            responder = Responder(LOCAL_BUS_IDS | node, ClockedBoard(board), JHU_FIRMWARE)
+            cabled = node == 0 or firmware >= MULTICAST_FIRMWARE
+            port = (
+                EthernetPort(board, responder, RackLink(self.bus, node), ethernet_hub=node == 0)
+                if cabled
+                else None
+            )
+            self.members.append(RackBoard(board, responder, port))
+
+    @property
+    def ports(self) -> list[tuple[int, EthernetPort]]:
+        """(index, port) of the boards cabled to the host."""
+        return [(n, m.port) for n, m in enumerate(self.members) if m.port is not None]
+
+    def bus_reset(self) -> None:
+        """A FireWire bus reset: the generation moves on (node IDs stay as they are)."""
+        self.bus.generation = (self.bus.generation + 1) & 0xFF
+
+    # -- traffic ------------------------------------------------------------------------
+    def receive(
+        self, index: int, payload: bytes, sender: HostAddress, now: float
+    ) -> list[tuple[int, Reply]]:
+        """A datagram for the port of board ``index``; the replies it causes, by port."""
+        port = self.members[index].port
+        if port is None:
+            return []
+        return self._run(index, port.receive(payload, sender, now), now)
+
+    def poll(self, now: float) -> list[tuple[int, Reply]]:
+        replies: list[tuple[int, Reply]] = []
+        for index, port in self.ports:
+            replies += self._run(index, port.poll(now), now)
+        return replies
+
+    def next_deadline(self) -> float | None:
+        deadlines = [d for _, port in self.ports if (d := port.next_deadline()) is not None]
+        return min(deadlines, default=None)
+
+    def _run(self, origin: int, actions: list[Action], now: float) -> list[tuple[int, Reply]]:
+        queue: deque[tuple[int, Action]] = deque((origin, action) for action in actions)
+        replies: list[tuple[int, Reply]] = []
+        while queue:
+            source, action = queue.popleft()
+            if isinstance(action, Reply):
+                replies.append((source, action))
+            elif isinstance(action, Forward):
+                queue.extend(self._forward(source, action.packet, now))
+            elif isinstance(action, HubBroadcast):
+                queue.extend(self._share(source, action.packet, now))
+        return replies
+
+    def _forward(self, source: int, packet: Request, now: float) -> list[tuple[int, Action]]:
+        """Deliver ``packet`` on the bus from board ``source``; what follows from it."""
+        if packet.destination_node == BROADCAST_NODE or query_reaches_every_node(packet):
+            targets = [n for n in range(len(self.members)) if n != source]
+        else:
+            targets = [
+                n for n, m in enumerate(self.members) if m.node_id == packet.destination_node
+            ]
+        damaged = bool(packet.problems)
+        origin_port = self.members[source].port
+        follow: list[tuple[int, Action]] = []
+        for target in targets:
+            member = self.members[target]
+            reply = member.responder.receive_packet(packet, now, damaged=damaged)
+            if isinstance(reply.response, Response) and origin_port is not None:
+                raw = encode_packet(reply.response)  # a FireWire node's response: real CRCs
+                follow += [(source, a) for a in origin_port.firewire_response(raw, now)]
+            if is_hub_query(packet):
+                follow += self._after_query(target, now)
+        return follow
+
+    def _after_query(self, index: int, now: float) -> list[tuple[int, Action]]:
+        member = self.members[index]
+        if member.port is not None:
+            return [(index, a) for a in member.port.query_taken(now)]
+        block = hub_broadcast(member.board, member.node_id)
+        return [] if block is None else [(index, HubBroadcast(block))]
+
+    def _share(
+        self, source: int, packet: BlockWriteRequest, now: float
+    ) -> list[tuple[int, Action]]:
+        follow: list[tuple[int, Action]] = []
+        for index, member in enumerate(self.members):
+            if index == source:
+                continue
+            if member.port is not None:
+                follow += [(index, a) for a in member.port.hub_block(packet, now)]
+            else:
+                member.responder.receive_packet(packet, now, damaged=False)
+        return follow

@@ -1,0 +1,153 @@
+"""Real-time block layouts of the QLA, per firmware revision.
+
+A block read in the MAIN space returns the real-time block (timestamp,
+status, digital I/O, temperature, then per-channel groups); a block write at
+offset 0 carries the DAC commands and a power-control quadlet. The write
+decoders here only say which registers to write; the board applies them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from fw1394.boards.qla1.regs import CHANNELS, DAC_BOARD_ID_SHIFT, DAC_VALID
+
+#: Index of each field in the Rev 8+ block; Rev 7 and Rev < 7 are prefixes of it
+#: (Rev < 7 has 4 groups, Rev 7 adds QTR5 and the running counter, Rev 8 motor status).
+TIMESTAMP = 0
+STATUS = 1
+DIGITAL_INPUT = 2
+TEMPERATURE = 3
+ADC = 4
+ENCODER_POSITION = ADC + CHANNELS
+ENCODER_PERIOD = ENCODER_POSITION + CHANNELS
+ENCODER_QTR1 = ENCODER_PERIOD + CHANNELS
+ENCODER_QTR5 = ENCODER_QTR1 + CHANNELS
+ENCODER_RUNNING = ENCODER_QTR5 + CHANNELS
+MOTOR_STATUS = ENCODER_RUNNING + CHANNELS
+#: Block reads index the block with offset bits 5..0.
+RT_INDEX_MASK = 0x3F
+
+
+def rt_read_quadlets(firmware: int) -> int:
+    """Size of the real-time read block: 4 + 4E, 4 + 6E, 4 + 2M + 5E quadlets."""
+    if firmware < 7:
+        return 4 + 4 * CHANNELS
+    if firmware == 7:
+        return 4 + 6 * CHANNELS
+    return 4 + 2 * CHANNELS + 5 * CHANNELS
+
+
+def rt_write_quadlets(firmware: int) -> int:
+    """Size of one board's real-time write block (header and control included)."""
+    if firmware < 7:
+        return CHANNELS
+    if firmware == 7:
+        return CHANNELS + 1
+    return CHANNELS + 2
+
+
+@dataclass(frozen=True)
+class RtSample:
+    """Everything a real-time read reports, in register form."""
+
+    timestamp: int
+    status: int
+    digital_input: int
+    temperature: int
+    adc: Sequence[int]
+    encoder_position: Sequence[int]
+    encoder_period: Sequence[int]
+    encoder_qtr1: Sequence[int]
+    encoder_qtr5: Sequence[int]
+    encoder_running: Sequence[int]
+    motor_status: Sequence[int]
+
+
+def rt_read_block(sample: RtSample, firmware: int) -> list[int]:
+    """The real-time read block of ``firmware`` as a list of quadlets."""
+    groups = [sample.adc, sample.encoder_position, sample.encoder_period, sample.encoder_qtr1]
+    if firmware >= 7:
+        groups += [sample.encoder_qtr5, sample.encoder_running]
+    if firmware >= 8:
+        groups.append(sample.motor_status)
+    block = [sample.timestamp, sample.status, sample.digital_input, sample.temperature]
+    for group in groups:
+        block.extend(group)
+    return block
+
+
+# -- block writes ---------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class RtWrite:
+    """Register writes a real-time block write asks of this board."""
+
+    dac_commands: tuple[tuple[int, int], ...] = ()  # (channel 1..15, value)
+    control: tuple[int, ...] = ()  # values to apply as STATUS writes
+
+
+def decode_rev8_write(words: Sequence[int], start_index: int, board_id: int | None) -> RtWrite:
+    """Rev 8+: blocks of ``header, DAC x count-2, control`` for one board each.
+
+    Header = (board id << 8) | count, count including header and control.
+    Each quadlet is routed the way the firmware's address translator does
+    (RTL reading, WriteAddressTranslation.v): a new block starts where the
+    previous one ends, the board id is compared in header bits 11..8, the
+    last quadlet of a block is the control word, and blocks for other boards
+    are skipped. Any block write in MAIN space goes through it. A
+    ``board_id`` of None takes every block.
+    """
+    block_start, block_length, local = 0, 0, False
+    dacs: list[tuple[int, int]] = []
+    control: list[int] = []
+    for position, value in enumerate(words):
+        index = (start_index + position) & 0xFF  # the translator's 8-bit address
+        if index in (block_start, (block_start + block_length) & 0xFF):
+            block_start, block_length = index, value & 0xFF
+            local = board_id is None or (value >> 8) & 0xF == board_id
+        elif not local:
+            continue
+        elif index == (block_start + block_length - 1) & 0xFF:
+            control.append(value)
+        else:
+            dacs.append(((index - block_start) & 0xF, value))
+    return RtWrite(tuple(dacs), tuple(control))
+
+
+def decode_rev7_write(words: Sequence[int], board_id: int | None) -> RtWrite:
+    """Rev 7: groups of 4 DAC commands (board id in bits 27..24) and a control quadlet.
+
+    A DAC command is taken only if it carries this board id; the control
+    quadlet only if all four of its group did (RTL reading of the Rev 7
+    FireWire.v; this is what lets one broadcast carry every board's group).
+    """
+    dacs: list[tuple[int, int]] = []
+    control: list[int] = []
+    group = CHANNELS + 1
+    for first in range(0, len(words), group):
+        chunk = words[first : first + group]
+        mine = [
+            board_id is None or (value >> DAC_BOARD_ID_SHIFT) & 0xF == board_id
+            for value in chunk[:CHANNELS]
+        ]
+        dacs += [(n + 1, value) for n, value in enumerate(chunk[:CHANNELS]) if mine[n]]
+        if len(chunk) == group and all(mine):
+            control.append(chunk[CHANNELS])
+    return RtWrite(tuple(dacs), tuple(control))
+
+
+def decode_old_write(words: Sequence[int]) -> RtWrite:
+    """Firmware 1-6: just the 4 DAC commands, channel 1 first; extra quadlets ignored."""
+    return RtWrite(tuple((n + 1, value) for n, value in enumerate(words[:CHANNELS])))
+
+
+def old_write_feeds_watchdog(write: RtWrite) -> bool:
+    """Firmware < 7 only counts DAC commands with the valid bit as register writes.
+
+    Inferred from the host, which adds a no-op write to feed the watchdog
+    exactly when no DAC command of the block had its valid bit.
+    """
+    return any(value & DAC_VALID for _, value in write.dac_commands)

@@ -1,0 +1,115 @@
+"""The board registry: every board kind a node can be, and everything about it.
+
+A board kind is one package under ``fw1394/boards/`` plus one line in
+:data:`BOARDS`. The CLI, the node process, the fuzzer and the bench look a
+board up here instead of naming it; nothing outside this module decides by a
+board's name.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from typing import Any
+
+from fw1394.boards.memory.board import MemorySpace
+from fw1394.boards.qla1.board import BOARD_DEFECTS as QLA1_DEFECTS
+from fw1394.boards.qla1.board import Qla1Board
+from fw1394.boards.snake2010.board import BOARD_DEFECTS as SNAKE2010_DEFECTS
+from fw1394.boards.snake2010.board import Snake2010Board
+from fw1394.boards.snake2010.spec import Z_THETA_CHANNELS
+from fw1394.engine.defects import PACKET_DEFECTS
+from fw1394.engine.space import AddressSpace
+
+
+@dataclass(frozen=True)
+class BoardKind:
+    """What fw1394 knows about one kind of board."""
+
+    name: str
+    #: One line for listings and ``--help``.
+    summary: str
+    #: Builds the board: keywords ``board_id`` and optionally ``defects``.
+    make: Callable[..., AddressSpace]
+    #: The responder policy a node of this kind runs with unless told otherwise
+    #: (a key of :data:`fw1394.engine.policy.POLICIES`).
+    policy: str = "thesis"
+    #: Board-level defects ``--defect`` can plant (see ``docs/boards/``).
+    defects: frozenset[str] = frozenset()
+    #: The board has an Ethernet (JHU Eth1394) side its node process serves too.
+    ethernet: bool = False
+
+
+def _memory(board_id: int = 0, size: int = 65536, **_: Any) -> AddressSpace:
+    return MemorySpace(size, board_id=board_id)
+
+
+BOARDS: dict[str, BoardKind] = {
+    kind.name: kind
+    for kind in (
+        BoardKind(
+            "snake2010",
+            "actuation unit of the 2010 snake robot: seven amplifier channels",
+            Snake2010Board,
+            defects=SNAKE2010_DEFECTS,
+        ),
+        BoardKind(
+            "snake2010-ztheta",
+            "Z-Theta and five-bar stages: the snake board populated with four channels",
+            lambda **kw: Snake2010Board(channels=Z_THETA_CHANNELS, **kw),
+            defects=SNAKE2010_DEFECTS,
+        ),
+        BoardKind(
+            "qla1",
+            "JHU FPGA1394 + QLA motor controller (firmware 8 unless told otherwise)",
+            Qla1Board,
+            policy="jhu",
+            defects=QLA1_DEFECTS,
+            ethernet=True,
+        ),
+        BoardKind(
+            "memory",
+            "plain memory, 64 KiB, byte-addressed the IEEE 1394 way",
+            _memory,
+            policy="quick",
+        ),
+    )
+}
+
+
+def board_kind(kind: str) -> BoardKind:
+    """The registry entry of ``kind``; :class:`KeyError` names the known kinds."""
+    try:
+        return BOARDS[kind]
+    except KeyError:
+        known = ", ".join(sorted(BOARDS))
+        raise KeyError(f"unknown board kind {kind!r}; known kinds: {known}") from None
+
+
+def make_board(kind: str, **kw: Any) -> AddressSpace:
+    """Build a board of ``kind`` (a key of :data:`BOARDS`) with keywords ``kw``."""
+    return board_kind(kind).make(**kw)
+
+
+def known_defects(kind: str | None) -> dict[str, str]:
+    """Defect names a node of board ``kind`` accepts, with what each does."""
+    known = dict(PACKET_DEFECTS)
+    entry = BOARDS.get(kind or "")
+    for name in sorted(entry.defects if entry else ()):
+        known[name] = f"board defect of {kind} (docs/boards/)"
+    return known
+
+
+def check_defects(kind: str, names: Iterable[str]) -> frozenset[str]:
+    """``names`` if a node of ``kind`` knows each; :class:`ValueError` names the first unknown."""
+    chosen = frozenset(names)
+    unknown = sorted(chosen - known_defects(kind).keys())
+    if unknown:
+        raise ValueError(f"unknown defect {unknown[0]!r} for {kind}; see `fw1394 fuzz defects`")
+    return chosen
+
+
+def board_defects(kind: str, names: frozenset[str]) -> frozenset[str]:
+    """The part of ``names`` the board itself plants (the rest is the responder's)."""
+    entry = BOARDS.get(kind)
+    return names & entry.defects if entry else frozenset()

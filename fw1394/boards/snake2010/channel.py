@@ -1,0 +1,203 @@
+"""One amplifier channel of the snake board as the FPGA sees it.
+
+Holds the channel's registers (thesis Table 1, devices 0-7): the dual ADC,
+the dual DAC, the digital pot's control/data pair and the quadrature
+encoder, and wires them to the motor model. The ``wiring`` chooses what is
+connected: ``"motor"`` (the amplifier drives a motor, the default) or
+``"loopback"`` (the section 8.1 bench test: DAC A feeds the ADC pot input,
+DAC B the ADC current input, and nothing moves).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Literal
+
+from fw1394.boards.snake2010.physics import UNPOWERED, Drive, MotorAxis, MotorConstants
+from fw1394.boards.snake2010.pot import DigitalPot
+from fw1394.boards.snake2010.spec import (
+    ADC_BITS,
+    ADC_HALF_MASK,
+    ADC_MAX,
+    ADC_MIN,
+    ADC_POT_SHIFT,
+    DAC_BITS,
+    DAC_CODE_MASK,
+    DAC_MIDPOINT,
+    DAC_READ_LIMIT_SHIFT,
+    DAC_SELECT_CURRENT_LIMIT,
+    ENCODER_COUNT_MASK,
+    ENCODER_OVERFLOW,
+    PERIOD_CLOCK_HZ,
+    PERIOD_MASK,
+    PERIOD_SATURATED,
+    VALID_BIT,
+    Device,
+    current_feedback_gain,
+)
+
+Wiring = Literal["motor", "loopback"]
+
+ADC_STEPS = 1 << ADC_BITS
+DAC_STEPS = 1 << DAC_BITS
+CONVERTER_VOLTS = 2.5
+
+
+def adc_code(fraction: float) -> int:
+    """Signed 14-bit ADC result for an input at ``fraction`` of 2.5 V.
+
+    The ADC reports the input relative to 1.25 V, so 0 V reads -8192 and
+    inputs beyond either end of its range clip.
+    """
+    code = math.floor(fraction * ADC_STEPS) + ADC_MIN
+    return min(max(code, ADC_MIN), ADC_MAX)
+
+
+class Channel:
+    """Registers and analog front end of one channel (1-based ``number``)."""
+
+    def __init__(self, number: int, constants: MotorConstants, wiring: Wiring) -> None:
+        self.number = number
+        self.constants = constants
+        self.wiring = wiring
+        self.motor = MotorAxis(constants)
+        self.pot = DigitalPot()
+        # Invented power-up codes: both DACs at mid-scale (motor stopped).
+        self.motor_command = DAC_MIDPOINT
+        self.current_limit = DAC_MIDPOINT
+        self.preload = 0
+        self._count_at_preload = 0
+        self._powered = False
+        self._drive: Drive | None = None  # cache, rebuilt after register writes
+        self._gain = current_feedback_gain(self.pot.wiper)  # follows pot writes
+        self._counts_per_rad = constants.encoder_counts_per_rev / (2.0 * math.pi)
+
+    # --- the amplifier ---------------------------------------------------
+    @property
+    def powered(self) -> bool:
+        """True when the amplifier is enabled and its fault line is quiet."""
+        return self._powered
+
+    @powered.setter
+    def powered(self, value: bool) -> None:
+        if value != self._powered:
+            self._powered = value
+            self._drive = None
+
+    @property
+    def drive(self) -> Drive:
+        """Amplifier inputs implied by the registers (cached)."""
+        if self._drive is None:
+            self._drive = self._build_drive()
+        return self._drive
+
+    def _build_drive(self) -> Drive:
+        if not self._powered or self.wiring == "loopback":
+            return UNPOWERED
+        c = self.constants
+        command_volts = (self.motor_command - DAC_MIDPOINT) * CONVERTER_VOLTS / DAC_STEPS
+        limit = self.current_limit / DAC_STEPS * c.current_limit_full_scale_amps
+        compensation = 0.0
+        if self.pot.speed_mode:
+            compensation = c.compensation_gain * self._gain * c.sense_ohms
+        return Drive(True, c.bridge_gain * command_volts, limit, compensation)
+
+    def current_amps(self) -> float:
+        """Motor current now (0 when the amplifier is off)."""
+        return self.motor.current_amps(self.drive)
+
+    # --- registers -------------------------------------------------------
+    def read(self, device: int) -> int:
+        """Value of the channel register ``device``; unmapped devices read 0."""
+        if device == Device.ADC:
+            return self.adc_word()
+        if device == Device.DAC:
+            return (self.current_limit << DAC_READ_LIMIT_SHIFT) | self.motor_command
+        if device == Device.POT_CONTROL:
+            return self.pot.control
+        if device == Device.POT_DATA:
+            return self.pot.data
+        if device == Device.ENCODER_PRELOAD:
+            return self.preload
+        if device == Device.ENCODER_DATA:
+            return self.encoder_word()
+        if device == Device.ENCODER_PERIOD:
+            return self.period_word()
+        # Device 7 (frequency) is "not implemented" in the thesis: nothing
+        # drives it, so it reads 0 like devices 8-15.
+        return 0
+
+    def write(self, device: int, value: int) -> None:
+        """Store ``value`` into register ``device``; read-only ones ignore it."""
+        if device == Device.DAC:
+            self.write_dac(value)
+        elif device == Device.POT_CONTROL:
+            self.pot.execute(value)
+            # The wiper or O1 may have changed.
+            self._gain = current_feedback_gain(self.pot.wiper)
+            self._drive = None
+        elif device == Device.ENCODER_PRELOAD:
+            self.preload_encoder(value)
+
+    def write_dac(self, value: int) -> None:
+        """Apply one DAC quadlet: valid bit, DAC select bit, 16-bit code."""
+        if not value & VALID_BIT:
+            return
+        code = value & DAC_CODE_MASK
+        if value & DAC_SELECT_CURRENT_LIMIT:
+            self.current_limit = code
+        else:
+            self.motor_command = code
+        self._drive = None
+
+    def preload_encoder(self, value: int) -> None:
+        """Load the 24-bit counter and clear its overflow flag."""
+        self.preload = value & ENCODER_COUNT_MASK
+        self._count_at_preload = self._raw_count(self.motor.angle_rad)
+        self.motor.reset_excursion()
+
+    def adc_word(self) -> int:
+        """Pot sample in bits 31-16, motor-current sample in bits 15-0."""
+        if self.wiring == "loopback":
+            pot = self.motor_command / DAC_STEPS
+            current = self.current_limit / DAC_STEPS
+        else:
+            c = self.constants
+            pot = self.motor.position_mm / c.travel_mm
+            sense_volts = self._gain * c.sense_ohms * self.current_amps()
+            current = 0.5 + sense_volts / CONVERTER_VOLTS
+        pot_half = adc_code(pot) & ADC_HALF_MASK
+        return (pot_half << ADC_POT_SHIFT) | (adc_code(current) & ADC_HALF_MASK)
+
+    def encoder_word(self) -> int:
+        """24-bit count in bits 23-0 and the sticky overflow flag in bit 24."""
+        motor = self.motor
+        count = self._count_from(motor.angle_rad)
+        lowest = self._count_from(motor.lowest_angle_rad)
+        highest = self._count_from(motor.highest_angle_rad)
+        overflow = lowest < 0 or highest > ENCODER_COUNT_MASK
+        return (count & ENCODER_COUNT_MASK) | (ENCODER_OVERFLOW if overflow else 0)
+
+    def period_word(self) -> int:
+        """Signed 16-bit count of 768 kHz clocks between encoder edges.
+
+        Invented details: 0 until the motor first moves; a motor slower than
+        the counter can measure (or stopped) reads +/-0x7FFF, signed by the
+        direction it last moved in.
+        """
+        direction = self.motor.last_direction
+        if direction == 0:
+            return 0
+        edges_per_second = abs(self.motor.velocity_rad_s) * self._counts_per_rad
+        if edges_per_second * PERIOD_SATURATED <= PERIOD_CLOCK_HZ:
+            clocks = PERIOD_SATURATED
+        else:
+            clocks = math.floor(PERIOD_CLOCK_HZ / edges_per_second)
+        return (direction * clocks) & PERIOD_MASK
+
+    def _raw_count(self, angle_rad: float) -> int:
+        return math.floor(angle_rad * self._counts_per_rad)
+
+    def _count_from(self, angle_rad: float) -> int:
+        # Counter value (before wrapping) if the motor stood at angle_rad.
+        return self.preload + self._raw_count(angle_rad) - self._count_at_preload

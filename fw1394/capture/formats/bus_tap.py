@@ -1,0 +1,172 @@
+"""A capture tap: a promiscuous listener that sees the whole bus as records.
+
+The tap is not a member (it gets no physical ID and causes no bus reset); its
+socket filter passes every frame of the bus, as a bus analyser's PHY passes
+every packet. Asynchronous packets are held back briefly (``ack_wait``) so
+that the ack that followed can be joined to them; records come out in the
+order the packets were seen, each with its kernel arrival time in ns.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+from fw1394.capture.formats.record import BusRecord, RecordType
+from fw1394.transport.config import BusConfig
+from fw1394.transport.medium import Medium
+from fw1394.transport.wire import (
+    BROADCAST_PHY,
+    HEADER_SIZE,
+    NO_PHY,
+    FrameError,
+    FrameHeader,
+    FrameKind,
+    parse_ack,
+    parse_header,
+)
+
+#: How long an asynchronous packet waits for its ack before it is passed on without.
+DEFAULT_ACK_WAIT = 0.05
+
+
+@dataclass
+class _Pending:
+    record: BusRecord
+    #: (generation, sender physical ID, frame sequence) an ack would refer to; None: final.
+    key: tuple[int, int, int] | None
+    expires: float
+
+
+class BusTap:
+    """Every packet on bus ``bus_name`` as :class:`BusRecord` objects."""
+
+    def __init__(
+        self,
+        bus_name: str,
+        *,
+        interface: str = "127.0.0.1",
+        ack_wait: float = DEFAULT_ACK_WAIT,
+    ) -> None:
+        self.config = BusConfig(bus_name, interface=interface)
+        self.ack_wait = ack_wait
+        self.medium = Medium(self.config, poll_interval=0.005)
+        self.medium.filter_as_tap()
+        self._queue: deque[_Pending] = deque()
+        self._waiting: dict[tuple[int, int, int], _Pending] = {}
+        self._last_stamp_ns = 0
+        self._closed = False
+
+    def __enter__(self) -> BusTap:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        if not self._closed:
+            self._closed = True
+            self.medium.close()
+
+    def __iter__(self) -> Iterator[BusRecord]:
+        while not self._closed:
+            record = self.receive(0.1)
+            if record is not None:
+                yield record
+
+    def receive(self, timeout: float) -> BusRecord | None:
+        """The next record, or None if none is complete within ``timeout`` seconds."""
+        limit = time.monotonic() + timeout
+        while True:
+            ready = self._pop_ready(time.monotonic())
+            if ready is not None:
+                return ready
+            if time.monotonic() >= limit:
+                return None
+            stamped = self.medium.receive_stamped()
+            if stamped is not None:
+                self._take(*stamped)
+
+    def _pop_ready(self, now: float) -> BusRecord | None:
+        if not self._queue:
+            return None
+        head = self._queue[0]
+        if head.key is not None and now < head.expires:
+            return None
+        self._queue.popleft()
+        if head.key is not None:
+            self._waiting.pop(head.key, None)
+        return head.record
+
+    def _take(self, frame: bytes, stamp_ns: int) -> None:
+        try:
+            header = parse_header(frame)
+        except FrameError:
+            return
+        # The socket queue is the bus's order. Two members' frames can reach the
+        # kernel on two CPUs within the same microsecond and be stamped the other way
+        # round; on a cable one packet cannot start before the one ahead of it, so a
+        # stamp never goes back (the difference is a few hundred nanoseconds).
+        stamp_ns = max(stamp_ns, self._last_stamp_ns)
+        self._last_stamp_ns = stamp_ns
+        payload = frame[HEADER_SIZE:]
+        sender = None if header.sender_phy == NO_PHY else header.sender_phy
+        kind = header.kind
+        if kind == FrameKind.bus_reset:
+            self._push(_record(header, stamp_ns, sender, RecordType.bus_reset, b""), None)
+        elif kind == FrameKind.phy_packet:
+            self._push(_record(header, stamp_ns, sender, RecordType.phy_packet, payload), None)
+        elif kind == FrameKind.async_packet:
+            record = _record(header, stamp_ns, sender, RecordType.async_packet, payload)
+            acked = header.destination != BROADCAST_PHY and sender is not None
+            key = (header.generation, header.sender_phy, header.sequence) if acked else None
+            self._push(record, key)
+        elif kind == FrameKind.ack:
+            self._take_ack(header, stamp_ns, sender, payload)
+
+    def _take_ack(
+        self, header: FrameHeader, stamp_ns: int, sender: int | None, payload: bytes
+    ) -> None:
+        # An ack frame goes to the sender of the packet it acknowledges.
+        generation, acked_sender = header.generation, header.destination
+        try:
+            ack = parse_ack(payload)
+        except FrameError:
+            return
+        pending = self._waiting.pop((generation, acked_sender, ack.acked_sequence), None)
+        if pending is not None:
+            acked = pending.record
+            pending.record = BusRecord(
+                acked.timestamp_ns,
+                acked.record_type,
+                acked.data,
+                acked.generation,
+                acked.sender,
+                acked.speed,
+                ack=ack.ack_byte >> 4,
+            )
+            pending.key = None
+        byte = bytes([ack.ack_byte])
+        self._push(_record(header, stamp_ns, sender, RecordType.ack, byte), None)
+        if ack.concatenated and sender is not None:
+            # The response that rode in the same tenure; the requester acks it by the
+            # sequence number of this ack frame.
+            response = _record(
+                header, stamp_ns, sender, RecordType.async_packet, ack.concatenated
+            )
+            self._push(response, (generation, sender, header.sequence))
+
+    def _push(self, record: BusRecord, key: tuple[int, int, int] | None) -> None:
+        pending = _Pending(record, key, time.monotonic() + self.ack_wait)
+        self._queue.append(pending)
+        if key is not None:
+            self._waiting[key] = pending
+
+
+def _record(
+    header: FrameHeader, stamp_ns: int, sender: int | None, kind: RecordType, data: bytes
+) -> BusRecord:
+    """What a tap knows of a frame; every other field keeps its default."""
+    return BusRecord(stamp_ns, kind, data, header.generation, sender, header.speed)

@@ -1,0 +1,335 @@
+"""``fw1394 dissect``: read a trace, decode, pair, count, and print the chosen view.
+
+Batches flow through one pipeline whatever the input format. The numpy
+work of decoding a batch runs on worker threads (numpy releases the GIL),
+while the main thread pairs and prints the previous one.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import json
+import queue
+import threading
+from collections import deque
+from collections.abc import Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass, field
+from typing import TextIO
+
+import numpy as np
+
+from fw1394.capture.analysis.batch import Batch
+from fw1394.capture.analysis.columns import Decoded, decode
+from fw1394.capture.analysis.rom_collect import RomCollector
+from fw1394.capture.analysis.rom_decode import report_lines
+from fw1394.capture.analysis.stats import Stats
+from fw1394.capture.analysis.transactions import Pairer, Transactions
+from fw1394.capture.formats import sources
+from fw1394.capture.formats.record import RecordType
+from fw1394.capture.views.packet_view import PACKET_CSV, PacketFormatter
+from fw1394.capture.views.transaction_view import TRANSACTION_CSV, TransactionFormatter
+
+VIEWS = ("packets", "transactions", "stats", "rom")
+#: Malformed-record messages printed before the rest are only counted.
+MAX_ISSUES_SHOWN = 50
+
+
+@dataclass
+class Options:
+    view: str = "packets"
+    output: str = "text"  # text, json or csv
+    verbose: bool = False
+    nodes: frozenset[int] = frozenset()
+    tcodes: frozenset[int] = frozenset()
+    since_s: float | None = None
+    until_s: float | None = None
+    verify_crc: bool | None = None
+    workers: int = 2
+    want_plots: bool = False
+
+
+@dataclass
+class Outcome:
+    stats: Stats
+    roms: RomCollector
+    records: int = 0
+    issues: int = 0
+    issue_lines: list[str] = field(default_factory=list)
+
+
+def decoded_batches(
+    jobs: Iterator[sources.Job], verify_crc: bool | None, workers: int
+) -> Iterator[tuple[Batch, Decoded]]:
+    """Run each job and decode its batch, in order, with up to ``workers`` batches ahead.
+
+    With workers, reading the input runs on a thread of its own, decoding on
+    a pool, and the caller pairs and prints: three stages that overlap.
+    """
+
+    def work(job: sources.Job) -> tuple[Batch, Decoded]:
+        batch = job()
+        return batch, decode(batch, verify_crc)
+
+    if workers <= 1:
+        for job in jobs:
+            yield work(job)
+        return
+    ahead: queue.Queue[Future[tuple[Batch, Decoded]] | BaseException | None]
+    ahead = queue.Queue(maxsize=workers + 1)
+    stop = threading.Event()
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+
+        def produce() -> None:
+            try:
+                for job in jobs:
+                    if stop.is_set():
+                        break
+                    ahead.put(pool.submit(work, job))
+            except BaseException as error:  # handed to the consumer, which re-raises it
+                ahead.put(error)
+            ahead.put(None)
+
+        reader = threading.Thread(target=produce, name="fw1394-reader", daemon=True)
+        reader.start()
+        try:
+            while (item := ahead.get()) is not None:
+                if isinstance(item, BaseException):
+                    raise item
+                yield item.result()
+        finally:
+            stop.set()
+            while reader.is_alive():
+                with contextlib.suppress(queue.Empty):
+                    ahead.get(timeout=0.05)
+            reader.join()
+
+
+class Dissection:
+    """One run of the pipeline over one input."""
+
+    def __init__(self, options: Options, out: TextIO) -> None:
+        self.options = options
+        self.out = out
+        self.pairer = Pairer()
+        self.outcome = Outcome(Stats(), RomCollector())
+        self.origin_ns: int | None = None
+        self.ordinal = 0
+        self._csv = csv.writer(out) if options.output == "csv" else None
+        self._generation: int | None = None
+        view = options.view
+        self.pairs = view in ("transactions", "stats", "rom") or options.want_plots
+        if self._csv is not None and view == "packets":
+            self._csv.writerow(PACKET_CSV)
+        elif self._csv is not None and view == "transactions":
+            self._csv.writerow(TRANSACTION_CSV)
+
+    def run(self, jobs: Iterator[sources.Job]) -> Outcome:
+        options = self.options
+        for batch, decoded in decoded_batches(jobs, options.verify_crc, options.workers):
+            self.feed(batch, decoded)
+        if self.pairs:
+            self._transactions(self.pairer.finish(), None)
+        self.finish()
+        return self.outcome
+
+    # -- per batch --------------------------------------------------------------------------
+    def feed(self, batch: Batch, decoded: Decoded) -> None:
+        outcome = self.outcome
+        for issue in batch.issues:
+            outcome.issues += 1
+            if len(outcome.issue_lines) < MAX_ISSUES_SHOWN:
+                outcome.issue_lines.append(str(issue))
+        if not len(batch):
+            return
+        if self.origin_ns is None:
+            self.origin_ns = int(batch.ts_ns[0])
+        outcome.records += len(batch)
+        keep = self._packet_filter(batch, decoded)
+        if self.options.view == "stats":
+            outcome.stats.add_batch(batch, decoded, keep)
+        if self.options.view == "packets":
+            self._packets(batch, decoded, keep)
+        if self.pairs:
+            self._transactions(self.pairer.feed(batch, decoded), batch)
+        self.ordinal += len(batch)
+
+    def _packet_filter(self, batch: Batch, decoded: Decoded) -> np.ndarray:
+        o = self.options
+        keep = np.ones(len(batch), bool)
+        if o.since_s is not None or o.until_s is not None:
+            seconds = (batch.ts_ns - (self.origin_ns or 0)) / 1e9
+            if o.since_s is not None:
+                keep &= seconds >= o.since_s
+            if o.until_s is not None:
+                keep &= seconds <= o.until_s
+        if o.tcodes:
+            keep &= np.isin(decoded.tcode, list(o.tcodes))
+        if o.nodes:
+            ids = list(o.nodes)
+            source, destination = decoded.fields["source_id"], decoded.fields["destination_id"]
+            keep &= (
+                np.isin(source, ids)
+                | np.isin(destination, ids)
+                | np.isin(source & 0x3F, ids) & (source >= 0)
+                | np.isin(destination & 0x3F, ids) & (destination >= 0)
+                | np.isin(batch.sender, ids)
+            )
+        return keep
+
+    def _transaction_filter(self, tx: Transactions) -> np.ndarray:
+        o = self.options
+        keep = np.ones(len(tx), bool)
+        if o.since_s is not None or o.until_s is not None:
+            seconds = (tx["first_ts"] - (self.origin_ns or 0)) / 1e9
+            if o.since_s is not None:
+                keep &= seconds >= o.since_s
+            if o.until_s is not None:
+                keep &= seconds <= o.until_s
+        if o.tcodes:
+            wanted = list(o.tcodes)
+            keep &= np.isin(tx["tcode"], wanted) | np.isin(tx["resp_tcode"], wanted)
+        if o.nodes:
+            ids = list(o.nodes)
+            requester, responder = tx["requester"], tx["responder"]
+            keep &= (
+                np.isin(requester, ids)
+                | np.isin(responder, ids)
+                | np.isin(requester & 0x3F, ids)
+                | np.isin(responder & 0x3F, ids)
+            )
+        return keep
+
+    def _packets(self, batch: Batch, decoded: Decoded, keep: np.ndarray) -> None:
+        formatter = PacketFormatter(batch, decoded, self.origin_ns or 0)
+        write, output = self.out.write, self.options.output
+        for row in np.flatnonzero(keep).tolist():
+            if output == "json":
+                write(json.dumps(formatter.json(row, self.options.verbose)) + "\n")
+            elif self._csv is not None:
+                self._csv.writerow(formatter.csv(row))
+            else:
+                write(formatter.line(row) + "\n")
+                if self.options.verbose:
+                    write("\n".join(formatter.details(row)) + "\n")
+
+    def _transactions(self, ended: list[Transactions], batch: Batch | None) -> None:
+        """Account for, and in the transaction view print, what ended in one batch."""
+        rows: list[tuple[int, TransactionFormatter, int]] = []
+        for tx in ended:
+            if batch is not None and self.options.view == "rom":
+                self.outcome.roms.add(tx, batch)
+            if not len(tx):
+                continue
+            keep = self._transaction_filter(tx)
+            if self.options.view == "stats" or self.options.want_plots:
+                self.outcome.stats.add_transactions(tx, keep)
+            if self.options.view == "transactions":
+                formatter = TransactionFormatter(tx, self.origin_ns or 0)
+                first = tx["first_ordinal"]
+                rows.extend((int(first[r]), formatter, r) for r in np.flatnonzero(keep).tolist())
+        if self.options.view != "transactions":
+            return
+        resets = self._resets(batch)
+        rows.sort(key=lambda item: item[0])
+        for ordinal, formatter, row in rows:
+            while resets and resets[0][0] < ordinal:
+                self._reset_line(resets.popleft())
+            self._transaction_row(formatter, row)
+        while resets:
+            self._reset_line(resets.popleft())
+
+    def _resets(self, batch: Batch | None) -> deque[tuple[int, int, int]]:
+        if batch is None or self.options.output != "text":
+            return deque()
+        rows = np.flatnonzero(batch.record_type == RecordType.bus_reset)
+        return deque(
+            (self.ordinal + int(r), int(batch.frame[r]), int(batch.generation[r]))
+            for r in rows.tolist()
+        )
+
+    def _reset_line(self, reset: tuple[int, int, int]) -> None:
+        _, frame, generation = reset
+        self.out.write(f"{frame:>7}  ---- bus reset: generation {generation} ----\n")
+        self._generation = generation
+
+    def _transaction_row(self, formatter: TransactionFormatter, row: int) -> None:
+        if self.options.output == "json":
+            self.out.write(json.dumps(formatter.json(row)) + "\n")
+            return
+        if self._csv is not None:
+            self._csv.writerow(formatter.csv(row))
+            return
+        generation = formatter.value("generation", row)
+        if self._generation is not None and generation != self._generation:
+            self.out.write(f"{'':>7}  ---- generation {generation} ----\n")
+        self._generation = generation
+        self.out.write(formatter.line(row) + "\n")
+
+    # -- end ---------------------------------------------------------------------------------
+    def finish(self) -> None:
+        view, output = self.options.view, self.options.output
+        if view == "stats":
+            self.outcome.stats.issues = self.outcome.issues
+            report = self.outcome.stats.report()
+            report["records_read"] = self.outcome.records
+            if output == "json":
+                self.out.write(json.dumps(report) + "\n")
+            else:
+                self.out.write("\n".join(stats_lines(report)) + "\n")
+        elif view == "rom":
+            for node, generation, rom in self.outcome.roms.reports():
+                if output == "json":
+                    obj = {"node": node, "generation": generation, "bus_info": rom.bus_info}
+                    obj["bus_info_crc_ok"] = rom.bus_info_crc_ok
+                    obj["blocks"] = [vars(block) for block in rom.blocks]
+                    obj["missing"] = rom.missing
+                    self.out.write(json.dumps(obj) + "\n")
+                else:
+                    self.out.write(f"node {node:04x}, generation {generation}:\n")
+                    self.out.write("".join(f"  {line}\n" for line in report_lines(rom)))
+            if not self.outcome.roms.roms and output == "text":
+                self.out.write("no configuration ROM reads in this trace\n")
+
+
+def stats_lines(report: dict[str, object]) -> list[str]:
+    """The stats report as aligned text."""
+    lines: list[str] = []
+
+    def section(title: str, values: object) -> None:
+        if not isinstance(values, dict) or not values:
+            return
+        lines.append(f"{title}:")
+        for key, value in values.items():
+            if isinstance(value, dict):
+                lines.append(f"  {key:<28} {_latency_text(value)}")
+            else:
+                lines.append(f"  {key:<28} {value}")
+
+    lines.append(f"records read: {report.get('records_read')}")
+    duration = report.get("duration_s")
+    if isinstance(duration, float):
+        lines.append(f"duration: {duration:.6f} s")
+    lines.append(f"bus resets: {report.get('bus_resets')}")
+    for title in ("records", "tcodes", "acks", "rcodes", "transactions"):
+        section(title, report.get(title))
+    latency = report.get("latency")
+    if isinstance(latency, dict):
+        lines.append(f"latency (all): {_latency_text(latency)}")
+    section("latency by kind", report.get("latency_by_kind"))
+    section("latency by node", report.get("latency_by_node"))
+    section("errors", report.get("errors"))
+    section("notes", report.get("notes"))
+    return lines
+
+
+def _latency_text(values: dict[str, object]) -> str:
+    def us(name: str) -> str:
+        value = values.get(name)
+        return "-" if not isinstance(value, int) else f"{value / 1000:.3f}"
+
+    return (
+        f"n={values.get('count')} p50={us('p50_ns')} p90={us('p90_ns')} "
+        f"p99={us('p99_ns')} max={us('max_ns')} us"
+    )

@@ -1,0 +1,184 @@
+"""The Wireshark Lua dissector, generated from fw1394's own definitions.
+
+Nothing in the generated file is written by hand twice: packet fields come
+from the layouts' ``Quadlets.bitfields`` (and the PHY packet layouts), the
+pseudo-header and the Eth1394 framing from their ``construct`` structs, value
+names from the enums, and the PHY packet dispatch from asking the codec which
+kind each identifier/type combination is. :mod:`fw1394.capture.views.lua_runtime`
+holds the fixed Lua code that walks these tables.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from enum import IntEnum
+
+from fw1394 import __version__
+from fw1394.capture.analysis.bitfields import FlatField, flatten
+from fw1394.capture.formats import pseudo_header
+from fw1394.capture.formats.record import Direction, RecordType
+from fw1394.capture.views.lua_runtime import RUNTIME
+from fw1394.packets import LAYOUTS, PHY_CLASSES, PacketError
+from fw1394.packets.enums import AckCode, ExtendedTCode, RCode, Retry, Speed, TCode
+from fw1394.packets.eth1394 import (
+    CONTROL_WORD,
+    CONTROL_WORD_SIZE,
+    EXTRA_BYTES,
+    EXTRA_SIZE,
+    UDP_PORT,
+)
+from fw1394.packets.fields import BitField
+from fw1394.packets.phy import PhyPacket, phy_class_of
+
+#: Field names as the Linux kernel's firewire tracepoints spell them.
+KERNEL_NAMES = {"destination_id": "dst_id", "source_id": "src_id"}
+#: Fields shown in hex; the others in decimal.
+_HEX = {"dst_id", "src_id", "offset", "quadlet_data", "header_crc", "data_crc", "reserved"}
+_VALUE_NAMES: dict[str, type[IntEnum]] = {
+    "tcode": TCode,
+    "rcode": RCode,
+    "retry": Retry,
+    "extended_tcode": ExtendedTCode,
+}
+REQUEST_TCODES = (0x0, 0x1, 0x4, 0x5, 0x9)
+RESPONSE_TCODES = (0x2, 0x6, 0x7, 0xB)
+
+
+def kernel_name(name: str) -> str:
+    return KERNEL_NAMES.get(name, name)
+
+
+def _lua_string(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def _value_table(enum: type[IntEnum]) -> str:
+    items = ", ".join(f"[{int(member)}] = {_lua_string(member.name)}" for member in enum)
+    return "{ " + items + " }"
+
+
+def _bitfields_table(bitfields: Iterable[BitField], prefix: str = "") -> str:
+    rows = []
+    for bit in bitfields:
+        rows.append(
+            f"{{ {_lua_string(prefix + kernel_name(bit.name))}, {bit.quadlet}, {bit.lsb}, "
+            f"{bit.mask:#x}, {bit.shift} }}"
+        )
+    return "{ " + ", ".join(rows) + " }"
+
+
+def _flat_table(fields: Iterable[FlatField], prefix: str) -> str:
+    rows = []
+    for field in fields:
+        name = prefix + field.name.replace(".", "_")
+        rows.append(
+            f"{{ {_lua_string(name)}, {field.byte_offset}, {field.byte_size}, {field.lsb}, "
+            f"{field.mask:#x}, {_lua_string(field.name)} }}"
+        )
+    return "{ " + ", ".join(rows) + " }"
+
+
+def _async_layouts() -> str:
+    lines = []
+    for tcode, layout in LAYOUTS.items():
+        lines.append(
+            f"  [{int(tcode)}] = {{ name = {_lua_string(layout.name)}, "
+            f"quadlets = {layout.header.count}, has_data = {str(layout.has_data).lower()}, "
+            f"fields = {_bitfields_table(layout.header.bitfields)} }},"
+        )
+    return "{\n" + "\n".join(lines) + "\n}"
+
+
+def _phy_layouts() -> tuple[str, str]:
+    classes = _phy_classes()
+    index = {cls: number + 1 for number, cls in enumerate(classes)}
+    layouts = [
+        f"  [{index[cls]}] = {{ name = {_lua_string(cls.NAME)}, "
+        f"fields = {_bitfields_table(cls.LAYOUT.bitfields, 'phy_')} }},"
+        for cls in classes
+    ]
+    # Which kind each (identifier, bit 23..22, type) makes, asked of the codec itself.
+    dispatch = []
+    for identifier in range(4):
+        for middle in range(4):
+            for kind in range(16):
+                probe = identifier << 30 | middle << 22 | kind << 18
+                try:
+                    cls = phy_class_of(probe)
+                except PacketError:
+                    continue
+                dispatch.append(f"[{identifier * 64 + middle * 16 + kind}] = {index[cls]}")
+    return "{\n" + "\n".join(layouts) + "\n}", "{ " + ", ".join(dispatch) + " }"
+
+
+def _proto_field(key: str, abbrev: str, label: str, width: int, base: str, names: str) -> str:
+    kind = "uint8" if width <= 8 else "uint16" if width <= 16 else "uint32"
+    kind = "uint64" if width > 32 else kind
+    field = f'ProtoField.{kind}("{abbrev}", {_lua_string(label)}, {base}{names})'
+    return f"F[{_lua_string(key)}] = {field}"
+
+
+def _field_declarations() -> list[str]:
+    widths: dict[str, int] = {"data_crc": 32}
+    for layout in LAYOUTS.values():
+        for name in layout.sealed_header.names:
+            key = kernel_name(name)
+            widths[key] = max(widths.get(key, 0), layout.sealed_header.widths[name])
+    lines = []
+    for name, width in widths.items():
+        base = "base.HEX" if name in _HEX else "base.DEC"
+        names = f", {name}_names" if name in _VALUE_NAMES else ""
+        lines.append(_proto_field(name, f"fw1394.{name}", name, width, base, names))
+    phy_widths: dict[str, int] = {}
+    for cls in _phy_classes():
+        for name in cls.LAYOUT.names:
+            phy_widths[name] = max(phy_widths.get(name, 0), cls.LAYOUT.widths[name])
+    for name, width in phy_widths.items():
+        lines.append(_proto_field(f"phy_{name}", f"fw1394.phy.{name}", name, width, "base.DEC", ""))
+    return lines
+
+
+def _phy_classes() -> list[type[PhyPacket]]:
+    return list(PHY_CLASSES.values()) if isinstance(PHY_CLASSES, dict) else list(PHY_CLASSES)
+
+
+def generate() -> str:
+    """The complete Lua dissector."""
+    phy_layouts, phy_dispatch = _phy_layouts()
+    header = pseudo_header.FIELDS.values()
+    tables = [
+        f"-- fw1394.lua: IEEE 1394 dissector generated by fw1394 {__version__}.",
+        "-- Regenerate with `fw1394 wireshark-dissector > fw1394.lua`; do not edit.",
+        "-- Use: wireshark -X lua_script:fw1394.lua trace.pcapng, or copy it to the",
+        "-- personal Lua plugins folder (Help > About Wireshark > Folders).",
+        "",
+        f"local LINKTYPE = {pseudo_header.LINKTYPE_FW1394}",
+        f"local PSEUDO_HEADER_VERSION = {pseudo_header.VERSION}",
+        f"local PSEUDO_HEADER_LENGTH = {pseudo_header.HEADER_LENGTH}",
+        f"local UDP_PORT = {UDP_PORT}",
+        f"local CONTROL_WORD_SIZE = {CONTROL_WORD_SIZE}",
+        f"local EXTRA_SIZE = {EXTRA_SIZE}",
+        f"local REQUEST_TCODES = {{ {', '.join(f'[{t}] = true' for t in REQUEST_TCODES)} }}",
+        f"local RESPONSE_TCODES = {{ {', '.join(f'[{t}] = true' for t in RESPONSE_TCODES)} }}",
+        f"local tcode_names = {_value_table(TCode)}",
+        f"local rcode_names = {_value_table(RCode)}",
+        f"local retry_names = {_value_table(Retry)}",
+        f"local extended_tcode_names = {_value_table(ExtendedTCode)}",
+        f"local ack_names = {_value_table(AckCode)}",
+        'ack_names[0] = "no ack"',
+        f"local speed_names = {_value_table(Speed)}",
+        f"local record_type_names = {_value_table(RecordType)}",
+        f"local direction_names = {_value_table(Direction)}",
+        f"local ASYNC = {_async_layouts()}",
+        f"local PHY = {phy_layouts}",
+        f"local PHY_DISPATCH = {phy_dispatch}",
+        f"local PSEUDO_HEADER = {_flat_table(header, 'ph_')}",
+        f"local CONTROL_WORD = {_flat_table(flatten(CONTROL_WORD), 'control_')}",
+        f"local EXTRA_BYTES = {_flat_table(flatten(EXTRA_BYTES), 'extra_')}",
+        "",
+        'local fw1394 = Proto("fw1394", "IEEE 1394 (fw1394 trace)")',
+        'local eth1394 = Proto("eth1394", "JHU Eth1394 (IEEE 1394 over UDP)")',
+        "local F = {}",
+        *_field_declarations(),
+    ]
+    return "\n".join(tables) + "\n" + RUNTIME

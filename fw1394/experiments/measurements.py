@@ -1,0 +1,118 @@
+"""The measurements of §8, against any :class:`~fw1394.experiments.bench_targets.Target`."""
+
+from __future__ import annotations
+
+import random
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from functools import partial
+
+from fw1394.experiments.bench_targets import BusTarget, Target
+from fw1394.experiments.phase_progress import Progress
+from fw1394.experiments.private_bus import PrivateBus
+from fw1394.experiments.timing import FailureBudget, collector_paused, time_calls, time_one
+
+
+@dataclass(frozen=True)
+class QuadletRun:
+    """§8.2: quadlet read and write times (us), one transaction at a time."""
+
+    read: list[float]
+    write: list[float]
+    failures: int
+
+
+def measure_quadlets(
+    target: Target, iterations: int, *, warmup: int, progress: Progress
+) -> QuadletRun:
+    progress.start("quadlet reads", iterations)
+    reads, read_failures = time_calls(
+        target.read_quadlet, iterations, warmup=warmup, progress=progress
+    )
+    progress.finish()
+    progress.start("quadlet writes", iterations)
+    writes, write_failures = time_calls(
+        target.write_quadlet, iterations, warmup=warmup, progress=progress
+    )
+    progress.finish()
+    return QuadletRun(reads, writes, read_failures + write_failures)
+
+
+@dataclass(frozen=True)
+class BlockRun:
+    """§8.3: block read and write times (us) by size in quadlets."""
+
+    sizes: list[int]
+    passes: int
+    read: dict[int, list[float]] = field(default_factory=dict)
+    write: dict[int, list[float]] = field(default_factory=dict)
+    failures: int = 0
+
+
+def measure_blocks(
+    target: Target,
+    sizes: Sequence[int],
+    passes: int,
+    *,
+    warmup: int,
+    progress: Progress,
+    seed: int = 1394,
+) -> BlockRun:
+    """``passes`` sweeps over ``sizes`` in a new random order each, a read and a write per size.
+
+    The shuffle keeps slow drifts of the machine (another job starting, a
+    frequency change) from lining up with the block size and tilting the fit.
+    """
+    order = list(sizes)
+    shuffle = random.Random(seed).shuffle
+    budget = FailureBudget(2 * len(order) * passes + warmup)
+    reads: dict[int, list[float]] = {size: [] for size in order}
+    writes: dict[int, list[float]] = {size: [] for size in order}
+    progress.start("block reads and writes", len(order) * passes)
+    with collector_paused():
+        for n in range(warmup):
+            size = order[n % len(order)]
+            time_one(partial(target.read_block, size), budget)
+            time_one(partial(target.write_block, size), budget)
+        for sweep in range(passes):
+            shuffle(order)
+            for done, size in enumerate(order):
+                reads[size].append(time_one(partial(target.read_block, size), budget))
+                writes[size].append(time_one(partial(target.write_block, size), budget))
+                if done and done % 64 == 0:
+                    progress.update(sweep * len(order) + done)
+    progress.finish()
+    return BlockRun(sorted(order), passes, reads, writes, budget.failures)
+
+
+@dataclass(frozen=True)
+class ScalePoint:
+    """Quadlet reads of board 0 with ``boards`` boards (and the host) on the bus."""
+
+    boards: int
+    reads: list[float]
+    failures: int
+    generation: int
+
+
+def measure_scale(
+    bus: PrivateBus,
+    board_counts: Sequence[int],
+    iterations: int,
+    *,
+    warmup: int,
+    progress: Progress,
+) -> list[ScalePoint]:
+    """Grow the bench's bus through ``board_counts`` and time quadlet reads of board 0 at each."""
+    points = []
+    target = BusTarget(bus.port, 0)
+    for boards in sorted(board_counts):
+        progress.note(f"scale: bringing the bus to {boards} boards ...")
+        bus.grow(boards)
+        progress.start(f"scale: quadlet reads, {boards} boards", iterations)
+        reads, failures = time_calls(
+            target.read_quadlet, iterations, warmup=warmup, progress=progress
+        )
+        progress.finish()
+        points.append(ScalePoint(boards, reads, failures, bus.port.generation))
+    return points

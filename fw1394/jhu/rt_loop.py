@@ -1,0 +1,158 @@
+"""The host's real-time loop: ReadAllBoards and WriteAllBoards, per protocol.
+
+Reads: one block read of the real-time block per board (sequential), or a
+broadcast query to 0x1800 followed by the hub's data (the unasked response
+in Ethernet-only mode, else, or after 20 ms, a block read of hub memory).
+Writes: one block write per board, or one broadcast block write carrying
+every board's block in board order. Block layouts per firmware revision are
+those of jhu-eth1394.md §4.5-4.6.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from fw1394.boards.qla1 import rt_blocks as rt
+from fw1394.boards.qla1.regs import (
+    CHANNELS,
+    DAC_BOARD_ID_SHIFT,
+    DAC_MIDRANGE,
+    DAC_VALID,
+    HUB_MEMORY_BASE,
+    HUB_QUERY,
+    BoardRegister,
+)
+from fw1394.jhu.client import EthUdpClient
+from fw1394.jhu.scan import BOARD_ID_MASK, Protocol, ScanResult
+from fw1394.packets.eth1394 import BROADCAST_NODE
+
+SEQUENCE_LIMIT = 0xFFFF
+
+
+def quadlets(data: bytes) -> list[int]:
+    return [int.from_bytes(data[n : n + 4], "big") for n in range(0, len(data) - 3, 4)]
+
+
+def pack(words: Sequence[int]) -> bytes:
+    return b"".join(word.to_bytes(4, "big") for word in words)
+
+
+@dataclass(frozen=True)
+class Command:
+    """What the loop sends one board each cycle: 4 DAC words and the control quadlet."""
+
+    dac: tuple[int, ...] = (DAC_VALID | DAC_MIDRANGE,) * CHANNELS
+    control: int = 0
+
+
+def write_block(board_id: int, firmware: int, command: Command) -> list[int]:
+    """One board's real-time write block (Rev 1-6: the DAC words only)."""
+    if firmware >= 8:
+        return [board_id << 8 | CHANNELS + 2, *command.dac, command.control]
+    if firmware == 7:
+        tagged = [value & ~(0xF << DAC_BOARD_ID_SHIFT) | board_id << DAC_BOARD_ID_SHIFT
+                  for value in command.dac]  # fmt: skip
+        return [*tagged, command.control]
+    return list(command.dac)
+
+
+@dataclass
+class RealTimeLoop:
+    """Cycles of the host's loop over the boards a scan found."""
+
+    client: EthUdpClient
+    scan: ScanResult
+    protocol: Protocol | None = None
+    sequence: int = 0
+
+    def __post_init__(self) -> None:
+        if self.protocol is None:
+            self.protocol = self.scan.protocol
+        self.boards = sorted(self.scan.boards, key=lambda board: board.board_id)
+        self.mask = sum(1 << board.board_id for board in self.boards)
+
+    # -- reads --------------------------------------------------------------------------
+    def read_all(self) -> dict[int, list[int] | None]:
+        """Board ID -> real-time block (None where the read failed)."""
+        if self.protocol is Protocol.BC_QRW:
+            return self._read_broadcast()
+        blocks: dict[int, list[int] | None] = {}
+        for board in self.boards:
+            size = 4 * rt.rt_read_quadlets(board.firmware)
+            data = self.client.read_block_node(board.node, 0, size)
+            blocks[board.board_id] = None if data is None else quadlets(data)
+        return blocks
+
+    def _read_broadcast(self) -> dict[int, list[int] | None]:
+        client = self.client
+        self.sequence = self.sequence % SEQUENCE_LIMIT + 1
+        size = 4 * (sum(rt.rt_read_quadlets(b.firmware) + 1 for b in self.boards) + 1)
+        client.flush()
+        query = (self.sequence << 16) | self.mask
+        if not client.write_quadlet_node(BROADCAST_NODE, HUB_QUERY, query):
+            return dict.fromkeys((b.board_id for b in self.boards), None)
+        query_tl = client.state.tl
+        data = None
+        if not client.state.use_bridge:
+            time.sleep((3 + 38 * (len(self.boards) - 1)) * 1e-6)
+            data = client.receive_broadcast_response(query_tl, size)
+        else:
+            time.sleep((10 + 10 * (len(self.boards) - 1)) * 1e-6)
+        if data is None:
+            hub = self.scan.node_of(client.state.hub_board)
+            data = client.read_block_node(hub, HUB_MEMORY_BASE, size)
+        return self._split_hub(data)
+
+    def _split_hub(self, data: bytes | None) -> dict[int, list[int] | None]:
+        blocks: dict[int, list[int] | None] = {}
+        words = quadlets(data) if data is not None else []
+        position = 0
+        for board in self.boards:
+            count = rt.rt_read_quadlets(board.firmware)
+            chunk = words[position + 1 : position + 1 + count]
+            header = words[position] if position < len(words) else 0
+            position += count + 1
+            good = (
+                len(chunk) == count
+                and header >> 16 & 0xFF == self.sequence & 0xFF
+                and (chunk[rt.STATUS] & BOARD_ID_MASK) >> 24 == board.board_id
+            )
+            blocks[board.board_id] = chunk if good else None
+        return blocks
+
+    # -- writes -------------------------------------------------------------------------
+    def write_all(self, commands: dict[int, Command] | None = None) -> bool:
+        commands = commands or {}
+        if self.protocol in (Protocol.SEQ_R_BC_W, Protocol.BC_QRW):
+            words: list[int] = []
+            for board in self.boards:
+                command = commands.get(board.board_id, Command())
+                words += write_block(board.board_id, board.firmware, command)
+            return self.client.write_block_node(BROADCAST_NODE, 0, pack(words))
+        ok = True
+        for board in self.boards:
+            ok &= self._write_one(board.node, board.board_id, board.firmware, commands)
+        return ok
+
+    def _write_one(
+        self, node: int, board_id: int, firmware: int, commands: dict[int, Command]
+    ) -> bool:
+        command = commands.get(board_id, Command())
+        words = write_block(board_id, firmware, command)
+        ok = self.client.write_block_node(node, 0, pack(words))
+        if firmware >= 7:
+            return ok
+        # Rev 1-6: control as its own write, and a no-op write to feed the watchdog.
+        if command.control:
+            ok &= self.client.write_quadlet_node(node, BoardRegister.STATUS, command.control)
+        if not any(value & DAC_VALID for value in command.dac):
+            ok &= self.client.write_quadlet_node(node, BoardRegister.STATUS, 0)
+        return ok
+
+    def cycle(self, commands: dict[int, Command] | None = None) -> dict[int, list[int] | None]:
+        """One read of every board, then one write; the blocks read."""
+        blocks = self.read_all()
+        self.write_all(commands)
+        return blocks

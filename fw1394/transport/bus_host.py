@@ -1,0 +1,356 @@
+"""The host side of the bus: a station driving the engine's :class:`Requester`.
+
+:class:`BusHost` is the low-level interface: start transactions (several may
+be outstanding), then :meth:`BusHost.wait` for their events or
+:meth:`BusHost.poll` the bus. :class:`fw1394.transport.bus_port.BusPort` puts the
+blocking :class:`~fw1394.host.port.Port` calls on top.
+
+A host is a bus member like any node (a contender, so it gets the highest
+physical ID and is root). It runs its timers only while inside one of its
+calls, so a host left idle for longer than a lease is dropped from the bus.
+Before its next transaction it catches up: it takes in what the bus said
+meanwhile and, if it was away long enough to be dropped, joins again (a bus
+reset) and waits for the new self-ID phase, so the transaction itself
+never meets a stale generation.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Self
+
+from fw1394.engine import Event, FailureReason, Requester, TransactionEvent, TransactionFailed
+from fw1394.packets import BlockReadResponse, RCode, name_of
+from fw1394.packets.fast import decode_packet, encode_packet
+from fw1394.transport.config import BusConfig
+from fw1394.transport.faults import FaultConfig
+from fw1394.transport.membership import BusReset, Excluded, Refused, Timing
+from fw1394.transport.station import Station
+from fw1394.transport.wire import (
+    ACK_PAYLOAD,
+    HEADER_SIZE,
+    MAX_UDP_PAYLOAD,
+    FrameHeader,
+    FrameKind,
+    MemberInfo,
+    ack_byte,
+    parse_ack,
+)
+
+LOCAL_BUS = 0x3FF
+#: A transaction the engine has not ended this long after its own timeouts is a bug;
+#: the guard turns it into an error instead of a hang.
+_GUARD_SLACK = 5.0
+_TIMER_GRANULARITY = 0.001
+# Plain ints: an Enum member lookup costs more than the rest of a frame's dispatch.
+_ASYNC_PACKET, _ACK = int(FrameKind.async_packet), int(FrameKind.ack)
+#: Wire byte of each ack code (code and parity), looked up rather than computed.
+_ACK_BYTES = tuple(ack_byte(code) for code in range(16))
+_ACK_SIZE = ACK_PAYLOAD.size
+#: Header, header CRC and data CRC of a block packet: what a block adds to its data.
+_BLOCK_OVERHEAD = len(encode_packet(BlockReadResponse(destination_id=0, tlabel=0, source_id=0)))
+#: The longest block whose read response still fits one datagram behind an ack (a
+#: concatenated response), and the longest block write request that fits one.
+MAX_BLOCK_READ = (MAX_UDP_PAYLOAD - HEADER_SIZE - _ACK_SIZE - _BLOCK_OVERHEAD) & ~3
+MAX_BLOCK_WRITE = (MAX_UDP_PAYLOAD - HEADER_SIZE - _BLOCK_OVERHEAD) & ~3
+
+
+class BusError(RuntimeError):
+    """The host could not get onto the bus (no answer, or the bus is full)."""
+
+
+class TransactionError(RuntimeError):
+    """A transaction failed; ``reason`` is the engine's name for why."""
+
+    def __init__(self, failure: TransactionFailed) -> None:
+        self.failure = failure
+        self.reason = failure.reason
+        text = str(failure.reason)
+        if failure.rcode is not None:
+            text += f" ({name_of(RCode, failure.rcode)})"
+        if failure.detail and failure.detail != text:
+            text += f": {failure.detail}"
+        super().__init__(text)
+
+
+def node_id_of(node: int) -> int:
+    """A physical ID 0-63 on the local bus, or a full 16-bit node ID as it is."""
+    if 0 <= node <= 63:
+        return LOCAL_BUS << 6 | node
+    if 0 <= node <= 0xFFFF:
+        return node
+    raise ValueError(f"node {node} is neither a physical ID (0-63) nor a 16-bit node ID")
+
+
+class BusHost:
+    """A host member of bus ``config.name``."""
+
+    def __init__(
+        self,
+        config: BusConfig | None = None,
+        *,
+        ack_timeout: float = 0.5,
+        split_timeout: float = 1.0,
+        max_busy_retries: int = 3,
+        join_timeout: float = 10.0,
+        timing: Timing | None = None,
+        faults: FaultConfig | None = None,
+        poll_interval: float = 0.005,
+    ) -> None:
+        self.config = config or BusConfig()
+        self.join_timeout = join_timeout
+        self.station = Station(
+            self.config,
+            contender=True,
+            host=True,
+            timing=timing,
+            faults=faults,
+            poll_interval=poll_interval,
+        )
+        self.requester = Requester(
+            node_id=LOCAL_BUS << 6 | 63,
+            split_timeout=split_timeout,
+            ack_timeout=ack_timeout,
+            max_busy_retries=max_busy_retries,
+        )
+        self._finished: dict[int, TransactionEvent] = {}
+        self._other_events: list[Event] = []
+        self._station_due = 0.0
+        self._timers_due = 0.0
+        #: When the host last served the bus (its timers run only inside its calls).
+        self._served_at = time.monotonic()
+        self.resets: list[BusReset] = []
+
+    # -- context manager ----------------------------------------------------------------
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        self.station.close()
+
+    # -- the bus ------------------------------------------------------------------------
+    @property
+    def generation(self) -> int:
+        return self.station.generation
+
+    @property
+    def phy_id(self) -> int | None:
+        return self.station.phy_id
+
+    @property
+    def members(self) -> tuple[MemberInfo, ...]:
+        return self.station.membership.members
+
+    def nodes(self) -> list[tuple[int, MemberInfo]]:
+        """(physical ID, member) of every member but this host, after self-ID."""
+        self.wait_ready()
+        me = self.station.member_id
+        return [(phy, m) for phy, m in enumerate(self.members) if m.member_id != me]
+
+    def wait_ready(self, timeout: float | None = None) -> None:
+        """Block until this host is on the bus with its self-ID phase complete."""
+        self._back_if_away()
+        membership = self.station.membership
+        if membership.ready:
+            return
+        seconds = self.join_timeout if timeout is None else timeout
+        limit = time.monotonic() + seconds
+        while not membership.ready:
+            if time.monotonic() > limit:
+                raise BusError(
+                    f"not on bus {self.config.name!r} after {seconds:.1f} s "
+                    f"(role {membership.role}, generation {membership.generation})"
+                )
+            self._pump()
+
+    def reset(self) -> None:
+        """Ask for a bus reset and wait until the next generation is ready."""
+        self.wait_ready()
+        before = self.generation
+        self.station.request_reset()
+        limit = time.monotonic() + self.join_timeout
+        while self.generation == before or not self.station.membership.ready:
+            if time.monotonic() > limit:
+                raise BusError("the bus did not reset")
+            self._pump()
+
+    # -- transactions (non-blocking starts) ----------------------------------------------
+    def start_read_quadlet(self, node: int, offset: int) -> int:
+        tid = self.requester.read_quadlet(node_id_of(node), offset, self._on_bus())
+        self._flush_requests()
+        return tid
+
+    def start_read_block(self, node: int, offset: int, length: int) -> int:
+        if length > MAX_BLOCK_READ:
+            raise ValueError(
+                f"a block read of {length} bytes cannot cross the virtual bus: its response "
+                f"would not fit one datagram (at most {MAX_BLOCK_READ} bytes per read)"
+            )
+        tid = self.requester.read_block(node_id_of(node), offset, length, self._on_bus())
+        self._flush_requests()
+        return tid
+
+    def start_write_quadlet(self, node: int, offset: int, value: int) -> int:
+        tid = self.requester.write_quadlet(node_id_of(node), offset, value, self._on_bus())
+        self._flush_requests()
+        return tid
+
+    def start_write_block(self, node: int, offset: int, data: bytes) -> int:
+        if len(data) > MAX_BLOCK_WRITE:
+            raise ValueError(
+                f"a block write of {len(data)} bytes cannot cross the virtual bus: it would "
+                f"not fit one datagram (at most {MAX_BLOCK_WRITE} bytes per write)"
+            )
+        tid = self.requester.write_block(node_id_of(node), offset, data, self._on_bus())
+        self._flush_requests()
+        return tid
+
+    def start_lock(
+        self, node: int, offset: int, extended_tcode: int, argument: bytes, data: bytes
+    ) -> int:
+        now = self._on_bus()
+        tid = self.requester.lock(node_id_of(node), offset, extended_tcode, argument, data, now)
+        self._flush_requests()
+        return tid
+
+    def wait(self, tid: int) -> TransactionEvent:
+        """The event that ended transaction ``tid`` (completed or failed)."""
+        finished = self._finished
+        requester, pump, clock = self.requester, self._pump, time.monotonic
+        guard = clock() + requester.ack_timeout + _GUARD_SLACK
+        guard += requester.split_timeout * (1 + requester.max_busy_retries)
+        while tid not in finished:
+            if clock() > guard:
+                return TransactionFailed(tid, FailureReason.response_timeout, detail="no end")
+            pump()
+        return finished.pop(tid)
+
+    def poll(self, timeout: float) -> list[Event]:
+        """Serve the bus for ``timeout`` seconds; events other than transaction ends."""
+        self._back_if_away()
+        limit = time.monotonic() + timeout
+        while time.monotonic() < limit:
+            self._pump()
+        events, self._other_events = self._other_events, []
+        return events
+
+    # -- the loop -----------------------------------------------------------------------
+    def _on_bus(self) -> float:
+        """Make sure this host is on the bus and ready; the time it was sure of it."""
+        now = self._back_if_away()
+        if self.station.membership.ready:
+            return now
+        self.wait_ready()
+        return time.monotonic()
+
+    def _back_if_away(self) -> float:
+        """Catch up with the bus if this host has been away from it; now."""
+        now = time.monotonic()
+        if now - self._served_at > self.station.membership.timing.heartbeat:
+            self._come_back(now)
+        return now
+
+    def _come_back(self, now: float) -> None:
+        # The bus went on without this host: what it said meanwhile comes first, so
+        # that a reset that happened is known before anything is sent.
+        station = self.station
+        away = now - self._served_at
+        for header, payload in station.catch_up():
+            self._take(header, payload, now)
+        self._apply_changes()
+        timing = station.membership.timing
+        if away >= timing.lease - timing.heartbeat:
+            # The coordinator has dropped this host, or may be doing so right now:
+            # a reset that removes it could otherwise still fail the next
+            # transaction. Joining again is one reset, and it is over before any
+            # request goes out.
+            station.rejoin()
+        station.service(now)
+        self._apply_changes()
+        self._station_due = station.next_deadline()
+        self._served_at = now
+
+    def _pump(self) -> None:
+        station = self.station
+        frame = station.receive()
+        now = time.monotonic()
+        self._served_at = now
+        if frame is None:
+            # A management frame (or nothing): a reset must reach the engine before
+            # the next packet is sent, or that packet would carry the old generation.
+            self._apply_changes()
+            self._station_due = min(self._station_due, station.next_deadline())
+        else:
+            self._take(frame[0], frame[1], now)
+        if now >= self._station_due or now >= station.wake_by:
+            station.service(now)
+            self._apply_changes()
+            self._station_due = station.next_deadline()
+        if now >= self._timers_due:
+            # Engine timeouts are tens of milliseconds and up: looking at them once a
+            # millisecond is precise enough and keeps the heap off the per-packet path.
+            self._timers_due = now + _TIMER_GRANULARITY
+            requester = self.requester
+            due = requester.next_deadline()
+            if due is not None and now >= due:
+                requester.handle_timer(now)
+                self._flush_requests()
+                self._collect()
+
+    def _take(self, header: FrameHeader, payload: bytes, now: float) -> None:
+        membership = self.station.membership
+        if header.generation == membership.generation and membership.phy_id is not None:
+            kind = header.kind
+            if kind == _ACK:
+                self._on_ack(header, payload, now)
+            elif kind == _ASYNC_PACKET:
+                self._on_response(header, payload, now)
+                self._collect()
+
+    def _on_ack(self, header: FrameHeader, payload: bytes, now: float) -> None:
+        if len(payload) < _ACK_SIZE:
+            parse_ack(payload)  # raises its FrameError
+        # Unpacked in place rather than through parse_ack's AckPayload: every
+        # transaction has one.
+        byte, tlabel, _, _ = ACK_PAYLOAD.unpack_from(payload)
+        self.requester.receive_ack(LOCAL_BUS << 6 | header.sender_phy, tlabel, byte >> 4, now)
+        if len(payload) > _ACK_SIZE:
+            self._on_response(header, payload[_ACK_SIZE:], now)
+        else:
+            self._flush_requests()  # a busy ack may have queued a retry
+        self._collect()
+
+    def _on_response(self, header: FrameHeader, payload: bytes, now: float) -> None:
+        packet = decode_packet(payload)
+        code = self.requester.receive_response(packet, now)
+        if code is not None:
+            tlabel: int = getattr(packet, "tlabel", 0)
+            ack = ACK_PAYLOAD.pack(_ACK_BYTES[code], tlabel, 0, header.sequence)
+            self.station.send(_ACK, header.sender_phy, ack)
+
+    def _apply_changes(self) -> None:
+        for change in self.station.changes():
+            if isinstance(change, BusReset):
+                self.requester.bus_reset(change.generation, LOCAL_BUS << 6 | change.phy_id)
+                self.resets.append(change)
+            elif isinstance(change, Excluded):
+                self.requester.bus_reset(change.generation)
+            elif isinstance(change, Refused):
+                raise BusError(f"bus {self.config.name!r} refused this host: {change.reason}")
+        self._collect()
+
+    def _flush_requests(self) -> None:
+        station = self.station
+        for packet in self.requester.packets_to_send():
+            destination = getattr(packet, "destination_id", 0xFFFF) & 0x3F
+            station.send(_ASYNC_PACKET, destination, encode_packet(packet))
+
+    def _collect(self) -> None:
+        for event in self.requester.events():
+            if isinstance(event, TransactionEvent):
+                self._finished[event.transaction] = event
+            else:
+                self._other_events.append(event)
