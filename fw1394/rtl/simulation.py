@@ -159,7 +159,8 @@ class Simulation:
         # The simulator's own output, kept for the error message if it dies.
         self._log = tempfile.TemporaryFile()  # noqa: SIM115
         command = ["vvp", "-m", str(cocotb_tools.config.lib_entry("vpi", "icarus"))]
-        command += [str(vvp), "-fst" if fst else "-none"]
+        # vvp's extended arguments: -none turns dumping off, -fst picks FST over VCD.
+        command += [str(vvp)] + (["-none"] if waves is None else ["-fst"] if fst else [])
         self.process = subprocess.Popen(
             command,
             env=_cocotb_environment(config),

@@ -161,3 +161,17 @@ def test_long_hold_breaks_the_interface_rules() -> None:
         assert answer["replies"][0][0] == AckCode.ack_pending  # answered all the same
     finally:
         sim.close()
+
+
+def test_a_waveform_of_the_run_is_written(tmp_path: Path) -> None:
+    waves = tmp_path / "repro.vcd"
+    target = RtlTarget(load("thesis"), node_id=0xFFC0, waves=waves)
+    raw = encode_async(QuadletReadRequest(destination_id=0xFFC0, tlabel=1, source_id=HOST))
+    from fw1394.fuzz.trial import wire_of
+
+    [reply] = target.exchange([wire_of(raw)], 0.0)
+    target.close()
+    assert reply.ack == AckCode.ack_pending
+    text = waves.read_text()
+    assert "$scope module fw1394_harness" in text and "$enddefinitions" in text
+    assert " lreq " in text and "#" in text.split("$enddefinitions")[1]
