@@ -175,3 +175,18 @@ def test_a_waveform_of_the_run_is_written(tmp_path: Path) -> None:
     text = waves.read_text()
     assert "$scope module fw1394_harness" in text and "$enddefinitions" in text
     assert " lreq " in text and "#" in text.split("$enddefinitions")[1]
+
+
+def test_driving_on_the_phys_turn_is_caught() -> None:
+    sim = Simulation(load(HERE / "late_release.toml"), physical_id=0)
+    try:
+        raw = encode_async(
+            QuadletWriteRequest(
+                destination_id=0xFFC0, tlabel=1, source_id=HOST, offset=0x20, quadlet_data=5
+            )
+        )
+        answer = sim.exchange([raw], 0.0)
+        assert answer["replies"][0][0] == AckCode.ack_complete
+        assert [v.split(":")[0] for v in answer["violations"]] == ["contention"]
+    finally:
+        sim.close()

@@ -6,7 +6,7 @@ import pytest
 
 pytest.importorskip("cocotb", reason="cocotb is not installed (pip install 'fw1394[rtl]')")
 
-from fw1394.rtl.phy import Phy, Request  # noqa: E402
+from fw1394.rtl.phy import Phy, Request
 
 
 def _decoded(*streams: str) -> tuple[list[Request], list[str]]:
@@ -20,11 +20,11 @@ def _decoded(*streams: str) -> tuple[list[Request], list[str]]:
 @pytest.mark.parametrize(
     ("stream", "wanted"),
     [
-        ("1" "000" "100" "0", Request(0, 0b100, 3)),  # ImmReq at S400 (an ack)
-        ("1" "011" "010" "0", Request(3, 0b010, 3)),  # FairReq at S200
-        ("1" "100" "0101" "0", Request(4, 5, 4)),  # RdReg of register 5
-        ("1" "101" "0001" "01000000" "0", Request(5, 0x140, 12)),  # WrReg IBR
-        ("1" "110" "1" "0", Request(6, 1, 1)),  # AccelCtl
+        ("10001000", Request(0, 0b100, 3)),  # ImmReq at S400 (an ack)
+        ("10110100", Request(3, 0b010, 3)),  # FairReq at S200
+        ("110001010", Request(4, 5, 4)),  # RdReg of register 5
+        ("11010001010000000", Request(5, 0x140, 12)),  # WrReg IBR
+        ("111010", Request(6, 1, 1)),  # AccelCtl
     ],
 )
 def test_each_request_type_is_decoded(stream: str, wanted: Request) -> None:
@@ -32,12 +32,12 @@ def test_each_request_type_is_decoded(stream: str, wanted: Request) -> None:
 
 
 def test_back_to_back_requests() -> None:
-    requests, violations = _decoded("1" "100" "0000" "0" "1" "000" "100" "0")
+    requests, violations = _decoded("11000000010001000")
     assert requests == [Request(4, 0, 4), Request(0, 0b100, 3)] and violations == []
 
 
 def test_malformed_streams_are_interface_violations() -> None:
-    requests, violations = _decoded("1" "111" "0000")
+    requests, violations = _decoded("11110000")
     assert requests == [] and violations[0].startswith("lreq-reserved:")
-    requests, violations = _decoded("1" "000" "100" "1")
+    requests, violations = _decoded("10001001")
     assert requests == [] and violations[0].startswith("lreq-stop:")

@@ -12,7 +12,13 @@ from fw1394.rtl.defects import RTL_DEFECTS, define
 from fw1394.rtl.portmap import HDL_DIR, PortMapError, harness_verilog, load
 
 HERE = Path(__file__).parent
-MAPS = [load("thesis"), load("thesis-own"), load(HERE / "split_lsb.toml"), load(HERE / "flag.toml")]
+MAPS = [
+    load("thesis"),
+    load("thesis-own"),
+    load(HERE / "split_lsb.toml"),
+    load(HERE / "flag.toml"),
+    load(HERE / "late_release.toml"),
+]
 needs_iverilog = pytest.mark.skipif(
     shutil.which("iverilog") is None, reason="Icarus Verilog (iverilog) is not installed"
 )
