@@ -50,7 +50,6 @@ GRANT_TIMEOUT = 8
 BUSY_LIMIT = 20_000
 #: Cycles an owned bus may stay in use (the longest packet and then some).
 OWN_LIMIT = 80_000
-STRENGTH = (1 << 8) - 1
 
 
 class Request(NamedTuple):

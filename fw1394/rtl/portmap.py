@@ -214,6 +214,12 @@ def _reverse(expr: str, width: int) -> str:
     return "{" + ", ".join(f"{expr}[{i}]" for i in range(width)) + "}"
 
 
+def _overrides(parameters: dict[str, int]) -> str:
+    if not parameters:
+        return ""
+    return "#(" + ", ".join(f".{name}({value})" for name, value in parameters.items()) + ") "
+
+
 def harness_verilog(portmap: PortMap) -> str:
     """The wrapper module ``fw1394_harness`` around the design, in canonical signals.
 
@@ -316,7 +322,7 @@ def harness_verilog(portmap: PortMap) -> str:
     lines += [
         "    wire [16:0] mon = {reg_blk_wr, reg_wr, reg_blk_rd, reg_rd, busy, lreq, link_oe,",
         "                       link_oe ? link_ctl : 2'b00, link_oe ? link_d : 8'h00};",
-        f"    {portmap.top} dut (",
+        f"    {portmap.top} {_overrides(portmap.parameters)}dut (",
         "        " + ",\n        ".join(connections),
         "    );",
         "endmodule",

@@ -63,7 +63,7 @@ def build(portmap: PortMap, *, defines: tuple[str, ...] = (), waves: Path | None
             f'    $dumpfile("{waves}");\n    $dumpvars(0, fw1394_harness);\nend\nendmodule\n'
         )
     key = hashlib.sha256()
-    for part in (harness, dump, *all_defines, *map(str, portmap.parameters.items())):
+    for part in (harness, dump, *all_defines):
         key.update(part.encode() + b"\0")
     for source in portmap.sources:
         key.update(source.read_bytes())
@@ -90,7 +90,6 @@ def build(portmap: PortMap, *, defines: tuple[str, ...] = (), waves: Path | None
         *roots,
         *(f"-I{path}" for path in includes),
         *(f"-D{name}" for name in all_defines),
-        *(f"-Pdut.{name}={value}" for name, value in portmap.parameters.items()),
         *sources,
         *extra,
     ]

@@ -190,3 +190,21 @@ def test_driving_on_the_phys_turn_is_caught() -> None:
         assert [v.split(":")[0] for v in answer["violations"]] == ["contention"]
     finally:
         sim.close()
+
+
+def test_port_map_parameters_reach_the_design(tmp_path: Path) -> None:
+    own = load("thesis-own")
+    text = own.path.read_text().replace(
+        'busy = "busy"', 'busy = "busy"\nparameters = { BOARD_ID = 9 }'
+    )
+    text = text.replace("@hdl/", str(own.sources[0].parent) + "/")
+    path = tmp_path / "board9.toml"
+    path.write_text(text)
+    sim = Simulation(load(path), physical_id=1)
+    try:
+        raw = encode_async(QuadletReadRequest(destination_id=0xFFC1, tlabel=1, source_id=HOST))
+        [[ack, response, _]] = sim.exchange([raw], 0.0)["replies"]
+        assert ack == AckCode.ack_pending
+        assert decode_async(bytes.fromhex(response)).quadlet_data == 0x0900_0000
+    finally:
+        sim.close()

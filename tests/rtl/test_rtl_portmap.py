@@ -129,3 +129,11 @@ def test_link_is_lint_clean_with_every_defect(defect: str | None, tmp_path: Path
         text=True,
     )
     assert result.returncode == 0 and result.stderr == "", result.stderr
+
+
+def test_parameters_reach_the_design(tmp_path: Path) -> None:
+    text = GOOD.replace('reset = "rst"', 'reset = "rst"\nparameters = { BOARD_ID = 9 }')
+    portmap = load(_write(tmp_path, text))
+    assert "fw1394_thesis_node #(.BOARD_ID(9)) dut (" in harness_verilog(portmap)
+    with pytest.raises(PortMapError, match="parameters must map names to integers"):
+        load(_write(tmp_path, text.replace("BOARD_ID = 9", 'BOARD_ID = "nine"')))
