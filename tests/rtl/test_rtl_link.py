@@ -64,6 +64,10 @@ def test_answers_like_the_engine_byte_for_byte(thesis: Simulation) -> None:
             destination_id=ME, tlabel=6, source_id=HOST, offset=0x11, data=bytes.fromhex("80001234")
         ),
         BlockReadRequest(destination_id=ME, tlabel=7, source_id=HOST, offset=0x10, data_length=8),
+        # odd lengths: the bytes past the length are sent as zeros
+        BlockReadRequest(destination_id=ME, tlabel=7, source_id=HOST, offset=0x11, data_length=3),
+        BlockReadRequest(destination_id=ME, tlabel=7, source_id=HOST, offset=0x11, data_length=2),
+        BlockReadRequest(destination_id=ME, tlabel=7, source_id=HOST, offset=0x10, data_length=5),
         BlockReadRequest(destination_id=ME, tlabel=8, source_id=HOST, offset=0, data_length=4096),
         BlockWriteRequest(destination_id=ME, tlabel=9, source_id=HOST, offset=3, data=bytes(3000)),
         BlockReadRequest(destination_id=ME, tlabel=10, source_id=HOST, offset=0, data_length=0),
@@ -89,8 +93,8 @@ def test_answers_like_the_engine_byte_for_byte(thesis: Simulation) -> None:
     replies = answer["replies"]
     assert replies[0][0] == AckCode.ack_pending and replies[0][2] is True
     assert replies[2][0] == AckCode.ack_complete and replies[2][1] is None
-    assert replies[11][1] is not None
-    read_back = decode_async(bytes.fromhex(replies[11][1]))
+    assert replies[14][1] is not None
+    read_back = decode_async(bytes.fromhex(replies[14][1]))
     assert isinstance(read_back, QuadletReadResponse) and read_back.quadlet_data == 0x77
 
 
@@ -123,12 +127,21 @@ def test_every_pin_style_reads_and_writes(spec: str) -> None:
         block_read = BlockReadRequest(
             destination_id=me, tlabel=4, source_id=HOST, offset=0x30, data_length=8
         )
-        answer = sim.exchange([encode_async(p) for p in (write, read, block, block_read)], 0.0)
+        odd_read = BlockReadRequest(
+            destination_id=me, tlabel=5, source_id=HOST, offset=0x30, data_length=7
+        )
+        packets = (write, read, block, block_read, odd_read)
+        answer = sim.exchange([encode_async(p) for p in packets], 0.0)
         assert answer["violations"] == []
-        (w_ack, _, _), (r_ack, r_raw, r_cat), (b_ack, _, _), (br_ack, br_raw, _) = answer["replies"]
+        replies = answer["replies"]
+        (w_ack, _, _), (r_ack, r_raw, r_cat), (b_ack, _, _), (br_ack, br_raw, _) = replies[:4]
         assert (w_ack, r_ack, b_ack, br_ack) == (1, 2, 1, 2) and r_cat
         assert decode_async(bytes.fromhex(r_raw)).quadlet_data == 0xCAFE0001
         assert decode_async(bytes.fromhex(br_raw)).data == bytes(range(8))
+        # an odd length: the byte past it goes out as zero, under a data CRC over zeros
+        odd = bytes.fromhex(replies[4][1])
+        assert odd[20:28] == bytes(range(7)) + b"\0"
+        assert decode_async(odd).problems == ()
     finally:
         sim.close()
 

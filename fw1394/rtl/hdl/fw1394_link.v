@@ -160,9 +160,9 @@ module fw1394_link #(
         begin
             first = {k, 2'b00};
             masked = value;
-            if (first + 18'd1 > length) masked[23:0] = 24'h0;
-            if (first + 18'd2 > length) masked[15:0] = 16'h0;
-            if (first + 18'd3 > length) masked[7:0] = 8'h0;
+            if (first + 18'd1 >= length) masked[23:0] = 24'h0;
+            if (first + 18'd2 >= length) masked[15:0] = 16'h0;
+            if (first + 18'd3 >= length) masked[7:0] = 8'h0;
             if (first >= length) masked = 32'h0;
         end
     endfunction
