@@ -7,7 +7,11 @@ import json
 import pytest
 from bus_support import bus_name, wait_until_gone
 
+from fw1394.capture.formats.bus_tap import BusTap
+from fw1394.capture.formats.record import RecordType
 from fw1394.cli.main import main
+from fw1394.packets import AckCode, BlockReadResponse
+from fw1394.packets.asynchronous import decode_async
 from fw1394.rtl.simulation import missing_tools
 
 pytestmark = [
@@ -32,8 +36,18 @@ def test_read_and_write_an_rtl_node_beside_an_emulated_one(
         assert main(["read", "--name", name, "0", "0x4", "--timeout", "2"]) == 0
         assert capsys.readouterr().out.strip() == "00000002"  # FIRMWARE_VERSION
         block = ["read", "--name", name, "0", "0x10", "--length", "8", "--timeout", "2"]
-        assert main(block) == 0
+        with BusTap(name, ack_wait=0.5) as tap:  # what a capture records
+            assert main(block) == 0
+            records = []
+            while (record := tap.receive(0.5)) is not None:
+                records.append(record)
         assert capsys.readouterr().out.strip() == "00000000 80008000"  # ADC, DAC midpoints
+        packets = [r for r in records if r.record_type is RecordType.async_packet]
+        request, response = packets[-2], packets[-1]
+        assert request.ack == AckCode.ack_pending and response.sender == 0
+        answer = decode_async(response.data)  # the bytes the link transmitted, CRCs and all
+        assert isinstance(answer, BlockReadResponse) and answer.problems == ()
+        assert answer.data == bytes.fromhex("0000000080008000")
         # after a bus reset the link learns its physical ID again from the PHY
         assert main(["bus", "reset", "--name", name]) == 0
         capsys.readouterr()
