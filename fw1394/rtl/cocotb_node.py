@@ -84,14 +84,16 @@ class Node:
             await phy.step()
             await phy.service()
 
-    async def exchange(self, now: float, packets: list[str]) -> dict[str, Any]:
+    async def exchange(
+        self, now: float, packets: list[str], interrupting: int = 0
+    ) -> dict[str, Any]:
         phy = self.phy
         assert phy is not None
         if phy.server is not None:
             phy.server.set_time(now)
         replies = []
         for text in packets:
-            reply = await phy.exchange(bytes.fromhex(text))
+            reply = await phy.exchange(bytes.fromhex(text), interrupting=interrupting)
             replies.append(
                 [
                     reply.ack,
@@ -121,7 +123,11 @@ async def serve(dut: Any) -> None:
         request = json.loads(line)
         op = request.get("op")
         if op == "exchange":
-            send(await node.exchange(request["now"], request["packets"]))
+            send(
+                await node.exchange(
+                    request["now"], request["packets"], request.get("interrupting", 0)
+                )
+            )
         elif op == "bus_reset":
             await node.renumber(request["physical_id"])
             send({"ready": True})

@@ -202,9 +202,18 @@ class Phy:
             + [value >> (7 - i) & 1 for i in range(8)]
         )
 
-    async def receive(self, raw: bytes) -> None:
-        """Deliver a packet as the PHY does: data-on, speed code, bytes, then Idle."""
+    async def receive(self, raw: bytes, *, interrupting: int = 0) -> None:
+        """Deliver a packet as the PHY does: data-on, speed code, bytes, then Idle.
+
+        ``interrupting``: first start a status transfer of register 0 and cut it
+        after that many cycles, as a PHY does when a packet arrives meanwhile.
+        """
         step = self.step
+        if interrupting:
+            value = self.registers[0]
+            bits = [0] * 8 + [value >> (7 - i) & 1 for i in range(8)]
+            for k in range(0, min(2 * interrupting, 14), 2):
+                await step(True, STATUS, bits[k] << 7 | bits[k + 1] << 6)
         await step(True, RECEIVE, 0xFF)
         await step(True, RECEIVE, 0xFF)
         if raw:
@@ -285,12 +294,12 @@ class Phy:
             packets.append(bytes(current))
         return Capture(packets, first_byte if first_byte is not None else -1)
 
-    async def exchange(self, raw: bytes) -> Reply:
+    async def exchange(self, raw: bytes, *, interrupting: int = 0) -> Reply:
         """Deliver ``raw`` and return the link's ack, response and tenure."""
         await self.service()
         if self.server is not None:
             self.server.new_packet()
-        await self.receive(raw)
+        await self.receive(raw, interrupting=interrupting)
         captures: list[Capture] = []
         quiet = 0
         waited = 1  # the Idle that ended the packet

@@ -206,8 +206,14 @@ class Simulation:
             raise SimulationError(f"the simulator is gone: {error}") from None
         return self._receive(self.timeout)
 
-    def exchange(self, packets: list[bytes], now: float) -> dict[str, Any]:
-        return self.request({"op": "exchange", "now": now, "packets": [p.hex() for p in packets]})
+    def exchange(
+        self, packets: list[bytes], now: float, *, interrupting: int = 0
+    ) -> dict[str, Any]:
+        """Deliver ``packets``; ``interrupting``: each cuts a status transfer after N cycles."""
+        message = {"op": "exchange", "now": now, "packets": [p.hex() for p in packets]}
+        if interrupting:
+            message["interrupting"] = interrupting
+        return self.request(message)
 
     def restart(self) -> bool:
         """Reset the design and the board behind it; whether it acks a valid read."""

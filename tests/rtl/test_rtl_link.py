@@ -221,3 +221,14 @@ def test_port_map_parameters_reach_the_design(tmp_path: Path) -> None:
         assert decode_async(bytes.fromhex(response)).quadlet_data == 0x0900_0000
     finally:
         sim.close()
+
+
+@pytest.mark.parametrize("cut", [1, 3, 7])
+def test_a_receive_may_cut_a_status_transfer_short(thesis: Simulation, cut: int) -> None:
+    # The link must take the packet, and not a half-sent register 0 for its node ID.
+    read = encode_async(QuadletReadRequest(destination_id=ME, tlabel=1, source_id=HOST, offset=4))
+    answer = thesis.exchange([read], 0.004, interrupting=cut)
+    assert answer["violations"] == []
+    assert answer["replies"][0][0] == AckCode.ack_pending
+    again = thesis.exchange([read], 0.004)["replies"][0]
+    assert again[0] == AckCode.ack_pending
