@@ -52,6 +52,7 @@ class Node:
             physical_id=config["physical_id"],
             ack_gap=self.portmap.ack_gap,
             registers=server,
+            poll_reads="rd" not in self.portmap.registers,
         )
         self.dut.rst.value = 1
         await phy.idle(RESET_CYCLES)

@@ -78,7 +78,13 @@ class Phy:
     """The PHY model on harness ``dut``; ``registers`` serves a register bus, if any."""
 
     def __init__(
-        self, dut: Any, *, physical_id: int, ack_gap: int, registers: RegisterServer | None
+        self,
+        dut: Any,
+        *,
+        physical_id: int,
+        ack_gap: int,
+        registers: RegisterServer | None,
+        poll_reads: bool = False,
     ) -> None:
         self.dut = dut
         self.physical_id = physical_id
@@ -97,6 +103,9 @@ class Phy:
         self._lreq_need = 0
         self._bus_resets = 0
         self._rdata = 0
+        #: The register bus has no read strobe: read data follows the address.
+        self.poll_reads = poll_reads and registers is not None
+        self._polled: int | None = None
 
     def set_id(self) -> None:
         # Physical_ID, R (root), PS (cable power)
@@ -124,7 +133,25 @@ class Phy:
         self._lreq(mon >> MON_LREQ & 1)
         if mon >> MON_RD & 0xF and self.server is not None:
             self._serve(mon)
+        if self.poll_reads:
+            self._poll()
         return mon
+
+    def _poll(self) -> None:
+        # Values change only at a new batch (the board's time) or with a write,
+        # and both forget the last address, so one read per address change is enough.
+        assert self.server is not None
+        value = self.dut.reg_addr.value
+        if not value.is_resolvable:
+            return
+        addr = value.to_unsigned()
+        if addr != self._polled:
+            self._polled = addr
+            self._put(self.server.read(addr))
+
+    def forget_read(self) -> None:
+        """Read the register again even if the address stays (it may have changed)."""
+        self._polled = None
 
     def _violate(self, signature: str, text: str) -> None:
         line = f"{signature}: {text}"
@@ -141,9 +168,11 @@ class Phy:
             self._put(server.block_read(addr, self.dut.reg_len.value.to_unsigned()))
         if mon >> MON_WR & 1:
             server.write(addr, self.dut.reg_wdata.value.to_unsigned())
+            self._polled = None
         elif mon >> MON_BLK_WR & 1:
             length = self.dut.reg_len.value.to_unsigned()
             server.block_write(addr, self.dut.reg_wdata.value.to_unsigned(), length)
+            self._polled = None
 
     def _put(self, value: int) -> None:
         if value != self._rdata:
@@ -299,6 +328,7 @@ class Phy:
         await self.service()
         if self.server is not None:
             self.server.new_packet()
+            self.forget_read()
         await self.receive(raw, interrupting=interrupting)
         captures: list[Capture] = []
         quiet = 0

@@ -232,3 +232,31 @@ def test_a_receive_may_cut_a_status_transfer_short(thesis: Simulation, cut: int)
     assert answer["replies"][0][0] == AckCode.ack_pending
     again = thesis.exchange([read], 0.004)["replies"][0]
     assert again[0] == AckCode.ack_pending
+
+
+def test_a_register_bus_without_read_strobes_is_served_by_address() -> None:
+    # An 8-bit address, no read strobe, no block signals: the board still answers.
+    responder = Responder(0xFFC0, board("snake2010", 0), THESIS_FPGA)
+    sim = Simulation(load(HERE / "no_rd.toml"), physical_id=0)
+    try:
+        packets = [
+            QuadletReadRequest(destination_id=0xFFC0, tlabel=1, source_id=HOST, offset=4),
+            QuadletWriteRequest(
+                destination_id=0xFFC0,
+                tlabel=2,
+                source_id=HOST,
+                offset=0x11,
+                quadlet_data=0x80004321,
+            ),
+            QuadletReadRequest(destination_id=0xFFC0, tlabel=3, source_id=HOST, offset=0x11),
+            BlockReadRequest(
+                destination_id=0xFFC0, tlabel=4, source_id=HOST, offset=0x10, data_length=12
+            ),
+        ]
+        raws = [encode_async(p) for p in packets]
+        answer = sim.exchange(raws, 0.001)
+        assert answer["violations"] == []
+        for raw, got in zip(raws, answer["replies"], strict=True):
+            assert got == _expected(responder, raw, 0.001), raw.hex()
+    finally:
+        sim.close()

@@ -18,6 +18,7 @@ MAPS = [
     load(HERE / "split_lsb.toml"),
     load(HERE / "flag.toml"),
     load(HERE / "late_release.toml"),
+    load(HERE / "no_rd.toml"),
 ]
 needs_iverilog = pytest.mark.skipif(
     shutil.which("iverilog") is None, reason="Icarus Verilog (iverilog) is not installed"
