@@ -34,7 +34,7 @@ def test_settings_for_rtl_targets() -> None:
 
 
 def test_emulator_and_rtl_agree_case_by_case() -> None:
-    assert list(compare(160, seed=3)) == []
+    assert list(compare(100, seed=3)) == []
 
 
 def test_a_disagreement_names_both_answers() -> None:
@@ -45,9 +45,9 @@ def test_a_disagreement_names_both_answers() -> None:
 
 
 def test_campaign_on_the_thesis_rtl_is_clean() -> None:
-    report = run(Settings("rtl:thesis", max_cases=80, seed=1, shrink_budget=0))
+    report = run(Settings("rtl:thesis", max_cases=60, seed=1, shrink_budget=0))
     assert report.findings == []
-    assert report.cases == 80
+    assert report.cases == 60
 
 
 @pytest.mark.parametrize(
