@@ -207,6 +207,7 @@ def test_driving_on_the_phys_turn_is_caught() -> None:
         sim.close()
 
 
+@pytest.mark.parametrize("cut", [1, 3, 7])
 def test_a_receive_may_cut_a_status_transfer_short(thesis: Simulation, cut: int) -> None:
     # The link must take the packet, and not a half-sent register 0 for its node ID.
     read = encode_async(QuadletReadRequest(destination_id=ME, tlabel=1, source_id=HOST, offset=4))
