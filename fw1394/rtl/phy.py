@@ -42,8 +42,6 @@ MAX_HOLD = 47
 #: Request types on LREQ, and the bits after the type (the stop bit included).
 REQUEST_BITS = {0: 4, 1: 4, 2: 4, 3: 4, 4: 5, 5: 13, 6: 2}
 BUS_REQUESTS = {0: "ImmReq", 1: "IsoReq", 2: "PriReq", 3: "FairReq"}
-#: Cycles without any activity after which a link is taken to stay silent.
-QUIET = 24
 #: A link granted the bus must start driving within this many cycles.
 GRANT_TIMEOUT = 8
 #: Cycles a link may stay busy after its answer (a 2 KiB write commit and more).
@@ -101,7 +99,6 @@ class Phy:
         self._drive = -1
         self._lreq_bits: list[int] | None = None
         self._lreq_need = 0
-        self._bus_resets = 0
         self._rdata = 0
         #: The register bus has no read strobe: read data follows the address.
         self.poll_reads = poll_reads and registers is not None
@@ -253,7 +250,6 @@ class Phy:
 
     async def bus_reset(self) -> None:
         """Status with S2 and register 0, then this node's self-ID packet."""
-        self._bus_resets += 1
         await self.register_status(0, bus_reset=True)
         self_id = (0b10 << 30) | (self.physical_id << 24) | (1 << 22) | (0x3F << 16) | (3 << 14)
         await self.receive(self_id.to_bytes(4, "big") + (self_id ^ 0xFFFFFFFF).to_bytes(4, "big"))
@@ -325,15 +321,17 @@ class Phy:
 
     async def exchange(self, raw: bytes, *, interrupting: int = 0) -> Reply:
         """Deliver ``raw`` and return the link's ack, response and tenure."""
-        await self.service()
+        await self._service_outside()
         if self.server is not None:
             self.server.new_packet()
             self.forget_read()
         await self.receive(raw, interrupting=interrupting)
         captures: list[Capture] = []
+        # A request that starts after the ack gap cannot bring an ack inside it:
+        # so much quiet on LREQ is silence.
         quiet = 0
         waited = 1  # the Idle that ended the packet
-        while quiet < QUIET or self.lreq_busy:
+        while quiet < self.ack_gap or self.lreq_busy:
             if self.requests:
                 request = self.requests[0]
                 if request.kind in BUS_REQUESTS:
@@ -365,8 +363,18 @@ class Phy:
             if not mon >> MON_BUSY & 1 and not self.lreq_busy and not self.requests:
                 return
             if self.requests:
-                await self.service()
+                await self._service_outside()
         self._violate("busy", f"the link stayed busy {BUSY_LIMIT} cycles after its answer")
+
+    async def _service_outside(self) -> None:
+        # Between answers the link has nothing to send: a packet now is an ack that
+        # came after the silence was called, or a response nobody asked for.
+        stray = [p for c in await self.service() for p in c.packets]
+        if stray:
+            self._violate(
+                "unsolicited",
+                f"the link sent {len(stray)} packet(s) outside any answer (an ack too late?)",
+            )
 
     def _reply(self, captures: list[Capture]) -> Reply:
         if not captures or not any(c.packets for c in captures):

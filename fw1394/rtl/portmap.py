@@ -60,7 +60,7 @@ class PortMap:
     defines: tuple[str, ...] = ()
     parameters: dict[str, int] = field(default_factory=dict)
     #: Cycles from the end of a received packet to the ack's first byte, at most.
-    ack_gap: int = 40
+    ack_gap: int = 32
 
     @property
     def served(self) -> bool:
@@ -84,7 +84,7 @@ def resolve(spec: str) -> Path:
 
 def load(spec: str | Path) -> PortMap:
     """Read and check the port map ``spec``; :class:`PortMapError` says what is wrong."""
-    path = resolve(str(spec))
+    path = resolve(str(spec)).absolute()  # the simulator runs in another directory
     try:
         data = tomllib.loads(path.read_text())
     except OSError as error:
@@ -147,7 +147,7 @@ def parse(data: dict[str, Any], path: Path) -> PortMap:
     parameters = design.get("parameters", {})
     if not isinstance(parameters, dict) or not all(isinstance(v, int) for v in parameters.values()):
         raise PortMapError(f"{where}: [design] parameters must map names to integers")
-    gap = data.get("phy", {}).get("ack_gap", 40)
+    gap = data.get("phy", {}).get("ack_gap", 32)
     if not isinstance(gap, int) or gap < 4:
         raise PortMapError(f"{where}: [phy] ack_gap must be an integer >= 4")
     return PortMap(

@@ -66,8 +66,9 @@ class RtlTarget:
             sim.close()
             raise NeverAcks(
                 f"port map {self.portmap.path.name}: the design never acknowledged a valid "
-                "quadlet read after reset; check the reset polarity, the bit order of CTL "
-                "and D (ctl0, d0), the pin style and the LREQ pin"
+                f"quadlet read after reset (within {self.portmap.ack_gap} cycles); check the "
+                "reset polarity, the bit order of CTL and D (ctl0, d0), the pin style, the "
+                "LREQ pin and [phy] ack_gap"
             )
         return sim
 

@@ -244,3 +244,23 @@ def test_a_register_bus_without_read_strobes_is_served_by_address() -> None:
             assert got == _expected(responder, raw, 0.001), raw.hex()
     finally:
         sim.close()
+
+
+@pytest.mark.parametrize(
+    ("delay", "ack", "violation"),
+    [(20, AckCode.ack_pending, "ack-gap"), (40, None, "unsolicited")],
+)
+def test_late_acks_break_the_ack_gap(tmp_path: Path, delay: int, ack, violation: str) -> None:
+    # LREQ delayed 20 cycles: the ack comes 33 cycles after the packet (gap 32);
+    # delayed 40: LREQ is quiet for the whole gap (silence), and the ack comes anyway.
+    text = (HERE / "slow_lreq.toml").read_text().replace("DELAY = 20", f"DELAY = {delay}")
+    path = tmp_path / "slow.toml"
+    path.write_text(text.replace('"variant_slow_lreq.v"', f'"{HERE / "variant_slow_lreq.v"}"'))
+    sim = Simulation(load(path), physical_id=0)
+    try:
+        raw = encode_async(QuadletReadRequest(destination_id=0xFFC0, tlabel=1, source_id=HOST))
+        answer = sim.exchange([raw], 0.0)
+        assert answer["replies"][0][0] == ack
+        assert [v.split(":")[0] for v in answer["violations"]] == [violation]
+    finally:
+        sim.close()

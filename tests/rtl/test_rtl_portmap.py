@@ -19,6 +19,7 @@ MAPS = [
     load(HERE / "flag.toml"),
     load(HERE / "late_release.toml"),
     load(HERE / "no_rd.toml"),
+    load(HERE / "slow_lreq.toml"),
 ]
 needs_iverilog = pytest.mark.skipif(
     shutil.which("iverilog") is None, reason="Icarus Verilog (iverilog) is not installed"
