@@ -52,7 +52,7 @@ def _starter(requester: Requester, kind: str) -> Callable[[float], int]:
 
 def transaction(policy: ResponderPolicy, kind: str) -> Callable[[], object]:
     """One complete transaction of ``kind``, through the engine and the codec."""
-    requester = Requester(node_id=HOST)
+    requester = Requester(node_id=HOST, duplicate_window=0.0)  # an in-memory medium: no copies
     responder = Responder(NODE, MemorySpace(8192), policy)
     start = _starter(requester, kind)
     clock = [0.0]
@@ -72,7 +72,7 @@ def transaction(policy: ResponderPolicy, kind: str) -> Callable[[], object]:
 
 def engine_only(policy: ResponderPolicy, kind: str) -> Callable[[], object]:
     """The same transaction with the codec taken out: packets are handed over as objects."""
-    requester = Requester(node_id=HOST)
+    requester = Requester(node_id=HOST, duplicate_window=0.0)  # an in-memory medium: no copies
     responder = Responder(NODE, MemorySpace(8192), policy)
     start = _starter(requester, kind)
     clock = [0.0]
@@ -92,7 +92,9 @@ def engine_only(policy: ResponderPolicy, kind: str) -> Callable[[], object]:
 
 def codec_only(policy: ResponderPolicy, kind: str) -> Callable[[], object]:
     """The same transaction's encodes and decodes, and nothing else."""
-    link = Link(Requester(node_id=HOST), [Responder(NODE, MemorySpace(8192), policy)])
+    link = Link(
+        Requester(node_id=HOST, duplicate_window=0.0), [Responder(NODE, MemorySpace(8192), policy)]
+    )
     _starter(link.requester, kind)(0.0)
     link.run()
     packets: list[AsyncPacket] = [e.packet for e in link.trace if e.packet is not None]
@@ -108,7 +110,9 @@ def codec_only(policy: ResponderPolicy, kind: str) -> Callable[[], object]:
 def through_link(policy: ResponderPolicy, kind: str) -> Callable[[], object]:
     """``LINK_BATCH`` transactions through :class:`Link` (its own bookkeeping included)."""
     link = Link(
-        Requester(node_id=HOST), [Responder(NODE, MemorySpace(8192), policy)], keep_trace=False
+        Requester(node_id=HOST, duplicate_window=0.0),
+        [Responder(NODE, MemorySpace(8192), policy)],
+        keep_trace=False,
     )
     start = _starter(link.requester, kind)
 

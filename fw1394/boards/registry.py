@@ -10,16 +10,47 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 from fw1394.boards.memory.board import MemorySpace
+from fw1394.boards.memory.regmap import DEFAULT_SIZE as MEMORY_MAP_SIZE
+from fw1394.boards.memory.regmap import REGISTER_MAP as MEMORY_MAP
 from fw1394.boards.qla1.board import BOARD_DEFECTS as QLA1_DEFECTS
 from fw1394.boards.qla1.board import Qla1Board
+from fw1394.boards.qla1.busnode import QLA1_NODE
+from fw1394.boards.qla1.regmap import REGISTER_MAP as QLA1_MAP
+from fw1394.boards.regmap import RegisterMap
 from fw1394.boards.snake2010.board import BOARD_DEFECTS as SNAKE2010_DEFECTS
 from fw1394.boards.snake2010.board import Snake2010Board
+from fw1394.boards.snake2010.regmap import REGISTER_MAP as SNAKE2010_MAP
 from fw1394.boards.snake2010.spec import Z_THETA_CHANNELS
 from fw1394.engine.defects import PACKET_DEFECTS
 from fw1394.engine.space import AddressSpace
+from fw1394.transport.config import BusConfig
+from fw1394.transport.faults import FaultConfig
+from fw1394.transport.membership import Timing
+
+
+class NodeProgram(Protocol):
+    """A kind's own node program: a node that serves more than the bus (Ethernet)."""
+
+    def check(self, *, eth1394: str | None, firmware: int) -> None:
+        """Raise ValueError (with the reason) for options no node could start with."""
+
+    def run(
+        self,
+        *,
+        config: BusConfig,
+        board_id: int,
+        rank: int | None,
+        timing: Timing | None,
+        faults: FaultConfig | None,
+        defects: frozenset[str],
+        eth1394: str | None,
+        firmware: int,
+        quiet: bool,
+    ) -> None:
+        """Run the node until SIGINT or SIGTERM; ValueError or OSError if it cannot start."""
 
 
 @dataclass(frozen=True)
@@ -38,9 +69,13 @@ class BoardKind:
     defects: frozenset[str] = frozenset()
     #: The board has an Ethernet (JHU Eth1394) side its node process serves too.
     ethernet: bool = False
+    #: Runs this kind's node itself instead of the generic node process.
+    node_program: NodeProgram | None = None
+    #: What the board decodes (see :mod:`fw1394.boards.regmap`); None: nothing known.
+    registers: RegisterMap | None = None
 
 
-def _memory(board_id: int = 0, size: int = 65536, **_: Any) -> AddressSpace:
+def _memory(board_id: int = 0, size: int = MEMORY_MAP_SIZE, **_: Any) -> AddressSpace:
     return MemorySpace(size, board_id=board_id)
 
 
@@ -52,12 +87,14 @@ BOARDS: dict[str, BoardKind] = {
             "actuation unit of the 2010 snake robot: seven amplifier channels",
             Snake2010Board,
             defects=SNAKE2010_DEFECTS,
+            registers=SNAKE2010_MAP,
         ),
         BoardKind(
             "snake2010-ztheta",
             "Z-Theta and five-bar stages: the snake board populated with four channels",
             lambda **kw: Snake2010Board(channels=Z_THETA_CHANNELS, **kw),
             defects=SNAKE2010_DEFECTS,
+            registers=SNAKE2010_MAP.with_copies("channel", range(1, Z_THETA_CHANNELS + 1)),
         ),
         BoardKind(
             "qla1",
@@ -66,12 +103,15 @@ BOARDS: dict[str, BoardKind] = {
             policy="jhu",
             defects=QLA1_DEFECTS,
             ethernet=True,
+            node_program=QLA1_NODE,
+            registers=QLA1_MAP,
         ),
         BoardKind(
             "memory",
             "plain memory, 64 KiB, byte-addressed the IEEE 1394 way",
             _memory,
             policy="quick",
+            registers=MEMORY_MAP,
         ),
     )
 }

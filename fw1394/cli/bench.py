@@ -138,8 +138,10 @@ def run_bench_command(args: argparse.Namespace) -> int:
         spec = parse_target(args.target, eth1394=args.eth1394)
     except ValueError as error:
         raise CliError(f"--target: {error}") from None
-    if args.board not in ("memory", *BOARDS):
-        raise CliError(f"--board {args.board!r}: not memory or one of {', '.join(sorted(BOARDS))}")
+    if args.board not in BOARDS:
+        # The wording is pinned by tests/experiments/test_bench_cli.py.
+        known = ", ".join(sorted(BOARDS))
+        raise CliError(f"--board {args.board!r}: not memory or one of {known}")
     progress = Progress(enabled=not args.quiet)
     try:
         result = run_bench(

@@ -4,15 +4,22 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any, TypeVar
 
-from fw1394.boards.qla1.busnode import add_eth1394_options, eth1394_node_arguments
-from fw1394.boards.registry import board_defects, board_kind
 from fw1394.cli.common import CliError, print_json_lines, print_table
-from fw1394.cli.fuzz import add_defect_option, checked_defects, defect_arguments
-from fw1394.engine.policy import POLICIES
-from fw1394.transport.config import DEFAULT_BUS, BusConfig, BusNameError
+from fw1394.cli.fuzz import defect_arguments
+from fw1394.node import description
+from fw1394.node.description import (
+    NodeDescriptionError,
+    add_bus_options,
+    add_defect_option,
+    add_ethernet_options,
+    add_member_options,
+    add_node_options,
+    member_arguments,
+)
+from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig
 from fw1394.transport.membership import Timing
 from fw1394.transport.wire import MAX_MEMBERS, MemberInfo
@@ -20,18 +27,14 @@ from fw1394.transport.wire import MAX_MEMBERS, MemberInfo
 if TYPE_CHECKING:
     from fw1394.transport.bus_port import BusPort
 
-DEFAULT_TIMING = Timing()
-
-
-def default_policy(board: str) -> str:
-    return board_kind(board).policy
+T = TypeVar("T")
+__all__ = ["add_bus_options", "add_member_options", "bus_config", "host_port", "register"]
 
 
 BUS_EXAMPLES = """\
 examples:
   fw1394 bus up --nodes 4                 four memory-backed nodes on bus "default"
   fw1394 bus up --name arm --nodes 2 --board snake2010
-  fw1394 bus up --nodes 1 --board rtl:thesis   the thesis link RTL in simulation (docs/rtl.md)
   fw1394 bus status --name arm
   fw1394 bus reset                        ask the coordinator for a bus reset
   fw1394 bus down --name arm              stop every process of bus "arm"
@@ -44,58 +47,23 @@ examples:
 """
 
 
-# -- options shared by every bus member ---------------------------------------------------
-def add_bus_options(parser: argparse.ArgumentParser) -> None:
-    group = parser.add_argument_group("bus")
-    group.add_argument("--name", default=DEFAULT_BUS, help="bus name (default: %(default)s)")
-    group.add_argument(
-        "--interface",
-        default="127.0.0.1",
-        help="local IPv4 address multicast uses (default: loopback only)",
-    )
-    group.add_argument(
-        "--ttl", type=int, default=0, help="multicast TTL: 0 stays on this host, 1 spans a LAN"
-    )
-
-
-def add_member_options(parser: argparse.ArgumentParser) -> None:
-    group = parser.add_argument_group("membership and faults")
-    group.add_argument("--heartbeat", type=float, default=DEFAULT_TIMING.heartbeat, help="seconds")
-    group.add_argument(
-        "--lease", type=float, default=DEFAULT_TIMING.lease, help="silence that ends membership (s)"
-    )
-    group.add_argument("--loss", type=float, default=0.0, help="drop this share of async frames")
-    group.add_argument("--duplicate", type=float, default=0.0, help="send this share twice")
-    group.add_argument("--delay", type=float, default=0.0, help="delay this share of frames")
-    group.add_argument(
-        "--delay-time", type=float, default=0.002, help="how long a delay is (s, default 0.002)"
-    )
-    group.add_argument("--fault-seed", type=int, default=None, help="seed of the fault dice")
-
-
+# -- options shared by every bus member (fw1394.node.description) --------------------------
 def bus_config(args: argparse.Namespace) -> BusConfig:
-    try:
-        return BusConfig(args.name, interface=args.interface, ttl=args.ttl)
-    except (BusNameError, ValueError) as error:
-        raise CliError(str(error)) from None
+    return _checked(description.bus_config, args)
 
 
 def timing(args: argparse.Namespace) -> Timing:
-    if not 0 < args.heartbeat < args.lease:
-        raise CliError(f"--heartbeat {args.heartbeat} must be positive and below --lease")
-    return Timing(heartbeat=args.heartbeat, lease=args.lease)
+    return _checked(description.timing, args)
 
 
 def faults(args: argparse.Namespace) -> FaultConfig:
+    return _checked(description.faults, args)
+
+
+def _checked(make: Callable[[argparse.Namespace], T], args: argparse.Namespace) -> T:
     try:
-        return FaultConfig(
-            loss=args.loss,
-            duplicate=args.duplicate,
-            delay=args.delay,
-            delay_seconds=args.delay_time,
-            seed=args.fault_seed,
-        )
-    except ValueError as error:
+        return make(args)
+    except NodeDescriptionError as error:
         raise CliError(str(error)) from None
 
 
@@ -114,18 +82,6 @@ def host_port(args: argparse.Namespace) -> BusPort:
         )
     except OSError as error:
         raise CliError(f"cannot join bus {config.name!r}: {error}") from None
-
-
-def member_arguments(args: argparse.Namespace) -> list[str]:
-    """The membership and fault options again, to hand on to node processes."""
-    out = ["--heartbeat", str(args.heartbeat), "--lease", str(args.lease)]
-    for name in ("loss", "duplicate", "delay"):
-        if getattr(args, name):
-            out += [f"--{name}", str(getattr(args, name))]
-    out += ["--delay-time", str(args.delay_time)]
-    if args.fault_seed is not None:
-        out += ["--fault-seed", str(args.fault_seed)]
-    return out
 
 
 def member_rows(members: Sequence[MemberInfo]) -> list[dict[str, Any]]:
@@ -172,7 +128,7 @@ def register(subparsers: Any) -> None:
         help="board kind, or kinds separated by commas given to the nodes in turn "
         "(default: memory)",
     )
-    add_eth1394_options(up)  # JHU Eth1394 (fw1394.boards.qla1.busnode)
+    add_ethernet_options(up)
     add_defect_option(up)  # planted bugs for the fuzzer, on every node
     up.add_argument("--timeout", type=float, default=60.0, help="seconds to wait for the nodes")
     up.add_argument("--json", action="store_true", help="JSON lines instead of a table")
@@ -197,28 +153,13 @@ def register(subparsers: Any) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     node_actions = node.add_subparsers(dest="action", metavar="ACTION", required=True)
-    run = node_actions.add_parser("run", help="run a node until interrupted")
-    add_node_run_options(run)
-    run.set_defaults(handler=node_run)
-
-
-def add_node_run_options(run: argparse.ArgumentParser) -> None:
-    add_bus_options(run)
-    add_member_options(run)
-    run.add_argument("--board", default="memory", help="board kind (default: memory)")
-    add_eth1394_options(run)  # JHU Eth1394 (fw1394.boards.qla1.busnode)
-    run.add_argument("--board-id", type=int, default=0, help="the board's own ID (rotary switch)")
-    run.add_argument("--memory-size", type=int, default=65536, help="bytes of a memory node")
-    run.add_argument(
-        "--policy",
-        choices=sorted(POLICIES),
-        default=None,
-        help="how the node answers (default: quick for memory, thesis/jhu for boards)",
+    run = node_actions.add_parser(
+        "run",
+        help="run a node until interrupted",
+        description="The same node as `python -m fw1394.node` (the node a bus starts).",
     )
-    run.add_argument("--rank", type=int, default=None, help="order key (default: start time)")
-    run.add_argument("--parent-pid", type=int, default=None, help=argparse.SUPPRESS)
-    run.add_argument("--quiet", action="store_true", help="no log lines on stderr")
-    add_defect_option(run)  # planted bugs for the fuzzer (fw1394.engine.defects)
+    add_node_options(run)
+    run.set_defaults(handler=node_run)
 
 
 def _bus_handler(action: str) -> Any:
@@ -239,16 +180,16 @@ def bus_up(args: argparse.Namespace) -> int:
             f"fw1394: note: {MAX_MEMBERS} nodes fill the bus; a host cannot join it",
             file=sys.stderr,
         )
-    for kind in args.board.split(","):
-        _check_board(kind)
-        _checked_defects(kind, args.defect)  # before any process starts
     node_arguments = (*member_arguments(args),)
-    # -- JHU Eth1394 (fw1394.boards.qla1.busnode): qla1 firmware and Ethernet cabling --
+    ethernet: set[tuple[str, ...]] = set()
     try:
-        node_arguments += eth1394_node_arguments(args)
-    except ValueError as error:
+        for kind in args.board.split(","):  # every node's options, before any process starts
+            description.check_board(kind)
+            description.checked_defects(kind, args.defect)
+            ethernet.add(description.ethernet_arguments(kind, args))
+    except NodeDescriptionError as error:
         raise CliError(str(error)) from None
-    # -- end JHU Eth1394 --
+    node_arguments += max(ethernet, key=len)  # kinds without an Ethernet side ignore them
     node_arguments += defect_arguments(args)  # planted bugs for the fuzzer
     timing(args)
     faults(args)
@@ -269,24 +210,6 @@ def bus_up(args: argparse.Namespace) -> int:
         raise
     print_members(member_rows(view.members), args.json)
     return 0
-
-
-def _check_board(kind: str) -> None:
-    if kind == "memory":
-        return
-    if kind.startswith("rtl:"):  # a link design in simulation (fw1394.rtl)
-        from fw1394.rtl.busnode import check_spec
-
-        try:
-            check_spec(kind)
-        except ValueError as error:
-            raise CliError(str(error)) from None
-        return
-    from fw1394.boards import BOARDS
-
-    if kind not in BOARDS:
-        known = ", ".join(sorted(BOARDS))
-        raise CliError(f"unknown board kind {kind!r}; known kinds: {known}")
 
 
 def bus_status(args: argparse.Namespace) -> int:
@@ -340,116 +263,14 @@ def bus_down(args: argparse.Namespace) -> int:
 
 
 def node_run(args: argparse.Namespace) -> int:
-    from fw1394.node.process import BusRefusedError, NodeOptions, run_node
-    from fw1394.transport.membership import BusReset
-    from fw1394.transport.procs import die_with_parent
+    from fw1394.node.run import NodeStartError, run
 
-    if args.parent_pid is not None:
-        die_with_parent(args.parent_pid)
-    config = bus_config(args)
-    # -- JHU Eth1394 (fw1394.boards.qla1.busnode): qla1 boards run with their Ethernet side --
-    if args.board == "qla1":
-        from fw1394.boards.qla1.busnode import run_from_arguments
-
-        try:
-            eth1394_node_arguments(args)
-            run_from_arguments(args, config, timing(args), faults(args))
-        except ValueError as error:
-            raise CliError(str(error)) from None
-        except OSError as error:
-            raise CliError(f"cannot join bus {config.name!r} or open Eth1394: {error}") from None
-        return 0
-    # -- end JHU Eth1394 --
-    # -- RTL link designs (fw1394.rtl): this process runs the simulation --
-    if args.board.startswith("rtl:"):
-        return _rtl_node_run(args, config)
-    space = _make_space(args)
-    options = NodeOptions(
-        config=config,
-        board_id=args.board_id,
-        rank=args.rank,
-        timing=timing(args),
-        faults=faults(args),
-        policy=POLICIES[args.policy or default_policy(args.board)],
-        defects=checked_defects(args.board, args.defect),
-    )
-
-    def log(change: BusReset) -> None:
-        print(
-            f"fw1394 node: generation {change.generation}: physical ID {change.phy_id} "
-            f"of {len(change.members)}",
-            file=sys.stderr,
-        )
-
-    def warn(text: str) -> None:
-        print(f"fw1394 node: warning: {text}", file=sys.stderr)
-
+    node = _checked(description.description_from_arguments, args)
     try:
-        run_node(space, options, on_reset=None if args.quiet else log, on_warning=warn)
-    except BusRefusedError as error:
-        raise CliError(f"bus {config.name!r} refused this node: {error}") from None
-    except OSError as error:
-        raise CliError(f"cannot join bus {config.name!r}: {error}") from None
-    return 0
-
-
-def _checked_defects(kind: str, names: list[str]) -> frozenset[str]:
-    if not kind.startswith("rtl:"):
-        return checked_defects(kind, names)
-    from fw1394.fuzz.targets import rtl_defects
-
-    unknown = sorted(set(names) - rtl_defects(kind.removeprefix("rtl:")).keys())
-    if unknown:
-        raise CliError(f"unknown defect {unknown[0]!r} for {kind}; see docs/rtl.md")
-    return frozenset(names)
-
-
-def _rtl_node_run(args: argparse.Namespace, config: Any) -> int:
-    from fw1394.node.process import NodeOptions
-    from fw1394.rtl.busnode import BusRefusedError, check_spec, run_rtl_node
-
-    try:
-        check_spec(args.board)
-    except ValueError as error:
+        run(node)
+    except NodeStartError as error:
         raise CliError(str(error)) from None
-    options = NodeOptions(
-        config=config,
-        board_id=args.board_id,
-        rank=args.rank,
-        timing=timing(args),
-        faults=faults(args),
-        defects=_checked_defects(args.board, args.defect),
-    )
-    try:
-        run_rtl_node(
-            args.board,
-            options,
-            on_warning=lambda text: print(f"fw1394 node: warning: {text}", file=sys.stderr),
-        )
-    except BusRefusedError as error:
-        raise CliError(f"bus {config.name!r} refused this node: {error}") from None
-    except OSError as error:
-        raise CliError(f"cannot run the RTL node on bus {config.name!r}: {error}") from None
     return 0
-
-
-def _make_space(args: argparse.Namespace) -> Any:
-    if not 0 <= args.board_id <= 0xFE:
-        raise CliError(f"--board-id {args.board_id} is outside 0..254")
-    if args.board == "memory":
-        from fw1394.boards.memory.board import MemorySpace
-
-        if args.memory_size <= 0 or args.memory_size % 4:
-            raise CliError(f"--memory-size {args.memory_size} is not a positive multiple of 4")
-        return MemorySpace(args.memory_size, board_id=args.board_id)
-    from fw1394.boards import make_board
-
-    _check_board(args.board)
-    try:
-        defects = board_defects(args.board, checked_defects(args.board, args.defect))
-        return make_board(args.board, board_id=args.board_id, defects=defects)
-    except (ValueError, TypeError) as error:
-        raise CliError(f"board {args.board!r}: {error}") from None
 
 
 def standalone(argv: Sequence[str]) -> int:

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from fw1394.cli.common import CliError, integer
+from fw1394.packets.nodeid import LOCAL_BASE
 
 EXAMPLES = """\
 examples:
@@ -58,7 +59,7 @@ def register(subparsers: Any) -> None:
     serve.add_argument("--eth1394", action="store_true", help="JHU Eth1394 framing")
     serve.add_argument("--policy", choices=("thesis", "jhu", "ieee1394"), default=None)
     serve.add_argument("--board-id", type=integer, default=0, help="the board's own ID")
-    serve.add_argument("--node-id", type=integer, default=0xFFC0, help="16-bit node ID")
+    serve.add_argument("--node-id", type=integer, default=LOCAL_BASE, help="16-bit node ID")
     serve.add_argument("--defect", action="append", default=[], metavar="NAME")
     serve.add_argument("--duration", type=float, default=None, help="stop after S seconds")
     serve.add_argument("--parent-pid", type=int, default=None, help=argparse.SUPPRESS)
@@ -81,7 +82,7 @@ def add_run_options(run: argparse.ArgumentParser) -> None:
     )
     what.add_argument("--model", default=None, help="board kind of the reference model")
     what.add_argument("--board-id", type=integer, default=0, help="the board's own ID (default 0)")
-    what.add_argument("--node-id", type=integer, default=0xFFC0, help="16-bit node ID (0xffc0)")
+    what.add_argument("--node-id", type=integer, default=LOCAL_BASE, help="16-bit node ID (0xffc0)")
     what.add_argument(
         "--policy",
         choices=("thesis", "jhu", "ieee1394"),
@@ -217,7 +218,7 @@ def run_replay(args: argparse.Namespace) -> int:
 def run_serve(args: argparse.Namespace) -> int:
     from fw1394.fuzz.contract import CONTRACTS
     from fw1394.fuzz.serve import ServeError, TunnelNode, loopback_address
-    from fw1394.fuzz.settings import DEFAULT_POLICIES, Settings, SettingsError
+    from fw1394.fuzz.settings import Settings, SettingsError, default_policy
     from fw1394.fuzz.targets import check
 
     if args.parent_pid is not None:
@@ -232,7 +233,7 @@ def run_serve(args: argparse.Namespace) -> int:
         raise CliError(str(error)) from None
     if args.duration is not None and args.duration <= 0:
         raise CliError("--duration must be positive")
-    policy = CONTRACTS[args.policy or DEFAULT_POLICIES.get(args.board, "thesis")]
+    policy = CONTRACTS[args.policy or default_policy(args.board)]
     try:
         node = TunnelNode(
             address,
@@ -256,13 +257,14 @@ def run_serve(args: argparse.Namespace) -> int:
 
 def list_defects(args: argparse.Namespace) -> int:
     from fw1394.boards.registry import known_defects
-    from fw1394.fuzz.targets import KINDS
+    from fw1394.fuzz.targets import kinds
 
-    if args.board is not None and args.board not in KINDS:
-        raise CliError(f"unknown board kind {args.board!r}; known kinds: {', '.join(KINDS)}")
+    known = kinds()
+    if args.board is not None and args.board not in known:
+        raise CliError(f"unknown board kind {args.board!r}; known kinds: {', '.join(known)}")
     rows = known_defects(args.board)
     if args.board is None:
-        for kind in KINDS:
+        for kind in known:
             rows.update(known_defects(kind))
     width = max(len(name) for name in rows)
     for name, text in rows.items():

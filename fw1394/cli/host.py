@@ -15,6 +15,7 @@ from fw1394.cli.bus import add_bus_options, add_member_options, bus_config, host
 from fw1394.cli.common import CliError, fail, integer
 from fw1394.packets import ExtendedTCode, RCode, name_of
 from fw1394.packets.hextext import quadlets_hex
+from fw1394.packets.nodeid import BROADCAST_PHY
 
 LOCK_OPERATIONS = {
     name: int(ExtendedTCode[name])
@@ -77,7 +78,7 @@ def _parser(subparsers: Any, name: str, text: str) -> argparse.ArgumentParser:
 def _check(args: argparse.Namespace) -> None:
     if not 0 <= args.offset < 1 << 48:
         raise CliError(f"offset {args.offset:#x} does not fit 48 bits")
-    if not 0 <= args.node <= 63:
+    if not 0 <= args.node <= BROADCAST_PHY:
         raise CliError(f"node {args.node} is not a physical ID (0-62, 63 is broadcast)")
     if args.timeout <= 0:
         raise CliError(f"--timeout {args.timeout} must be positive")
@@ -98,7 +99,7 @@ def _transact(args: argparse.Namespace, what: str, action: Any) -> Any:
     with host_port(args) as port:
         try:
             nodes = dict(port.nodes())
-            if args.node != 63 and args.node not in nodes:
+            if args.node != BROADCAST_PHY and args.node not in nodes:
                 known = ", ".join(str(phy) for phy in sorted(nodes)) or "none"
                 raise CliError(
                     f"no node {args.node} on bus {config.name!r} (nodes: {known}; "
@@ -143,7 +144,7 @@ def run_read(args: argparse.Namespace) -> int:
     if not 0 < args.length <= MAX_BLOCK_READ:
         # The 1394 field allows 65535, but the answer must fit one datagram.
         raise CliError(f"--length {args.length} is outside 1..{MAX_BLOCK_READ}")
-    if args.node == 63:
+    if args.node == BROADCAST_PHY:
         raise CliError("reads cannot be broadcast (node 63)")
 
     def action(port: Any) -> bytes:
@@ -191,7 +192,7 @@ def run_lock(args: argparse.Namespace) -> int:
         raise CliError(f"{operation} takes {shape} ({wanted} quadlets), not {len(args.operands)}")
     operands = [_quadlet(value) for value in args.operands]
     argument, data = (b"", operands[0]) if wanted == 1 else (operands[0], operands[1])
-    if args.node == 63:
+    if args.node == BROADCAST_PHY:
         raise CliError("locks cannot be broadcast (node 63)")
 
     def action(port: Any) -> bytes:

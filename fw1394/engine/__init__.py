@@ -17,7 +17,6 @@ from fw1394.engine.events import (
     UnexpectedResponse,
     WriteCompleted,
 )
-from fw1394.engine.labels import LabelsExhausted
 from fw1394.engine.policy import IEEE1394_NODE, JHU_FIRMWARE, THESIS_FPGA, ResponderPolicy
 from fw1394.engine.requester import Requester
 from fw1394.engine.responder import Reply, Responder
@@ -28,7 +27,6 @@ __all__ = [
     "THESIS_FPGA",
     "Event",
     "FailureReason",
-    "LabelsExhausted",
     "LockCompleted",
     "ReadCompleted",
     "Reply",

@@ -56,6 +56,9 @@ class TransactionFailed(TransactionEvent):
     #: The response code, for ``rcode_error``.
     rcode: int | None = None
     detail: str = ""
+    #: A write or lock that was out on the bus with no answer yet (no ack, no
+    #: response, a mismatching response, a bus reset): it may have been performed.
+    outcome_unknown: bool = False
 
 
 @dataclass(frozen=True, slots=True)

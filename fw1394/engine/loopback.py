@@ -38,8 +38,8 @@ from fw1394.packets import (
     RoutedPacket,
 )
 from fw1394.packets.fast import decode_sound, encode_packet
+from fw1394.packets.nodeid import BROADCAST_ID, is_broadcast
 
-_BROADCAST_NODE = 63
 _WRITES = (QuadletWriteRequest, BlockWriteRequest)
 
 
@@ -161,10 +161,10 @@ class Link:
     def bus_reset(self, generation: int) -> None:
         """A bus reset: packets in flight are lost, every node enters ``generation``."""
         self._in_flight.clear()
-        self.requester.bus_reset(generation)
+        self.requester.bus_reset(generation=generation)
         for responder in self.responders:
-            responder.bus_reset(responder.node_id, generation)
-        self._record(Exchange(self.now, "bus_reset", 0xFFFF, 0xFFFF))
+            responder.bus_reset(node_id=responder.node_id, generation=generation)
+        self._record(Exchange(self.now, "bus_reset", BROADCAST_ID, BROADCAST_ID))
 
     @property
     def in_flight(self) -> int:
@@ -240,7 +240,7 @@ class Link:
             else []
         )
         acked = [(r, reply.ack) for r, reply in replies if reply.ack is not None]
-        if request.destination_id & 0x3F == _BROADCAST_NODE and isinstance(request, _WRITES):
+        if is_broadcast(request.destination_id) and isinstance(request, _WRITES):
             # Nobody acks a broadcast write, and the requester waits for no ack; a
             # node that acks misbehaves, and the wire shows it.
             for responder, ack in acked:

@@ -4,12 +4,18 @@ Sans-IO: the caller puts :meth:`Requester.packets_to_send` on the wire, hands
 back the acks and responses that came, and calls :meth:`Requester.handle_timer`
 by :meth:`Requester.next_deadline`. Every transaction ends with exactly one event
 (completed, or failed with a :class:`FailureReason`).
+
+A label stays out of use for a while after its transaction ends (see
+:mod:`fw1394.engine.labels`); a transaction started while all 64 labels to its
+destination are out of use waits in the requester, in order, and goes out
+(appears in :meth:`Requester.packets_to_send`) when one comes free.
 """
 
 from __future__ import annotations
 
 import heapq
 import math
+from collections import deque
 from dataclasses import replace
 
 from fw1394.engine.events import (
@@ -26,6 +32,7 @@ from fw1394.engine.transaction import (
     AWAIT_ACK,
     AWAIT_RESPONSE,
     BUSY_WAIT,
+    QUEUED,
     Transaction,
     completion,
     mismatch_of,
@@ -62,6 +69,12 @@ _new_read_block = builder(BlockReadRequest, *_ROUTE, "data_length")
 _new_write_quadlet = builder(QuadletWriteRequest, *_ROUTE, "quadlet_data")
 _new_write_block = builder(BlockWriteRequest, *_ROUTE, "data")
 _new_lock = builder(LockRequest, *_ROUTE, "extended_tcode", "data")
+#: Ends that leave the request's fate open: its answer may still be on its way.
+_UNANSWERED = frozenset(
+    {FailureReason.no_ack, FailureReason.response_timeout, FailureReason.response_mismatch}
+)
+#: Ends after which a write or lock may or may not have been performed.
+_UNKNOWN_OUTCOME = _UNANSWERED | {FailureReason.bus_reset}
 
 
 class Requester:
@@ -76,6 +89,7 @@ class Requester:
         max_busy_retries: int = 3,
         busy_retry_delay: float = 0.001,
         retry_protocol: str = "single",
+        duplicate_window: float | None = None,
     ) -> None:
         if retry_protocol not in ("single", "dual"):
             raise ValueError(f"retry_protocol={retry_protocol!r}: expected 'single' or 'dual'")
@@ -86,7 +100,14 @@ class Requester:
         self.max_busy_retries = max_busy_retries
         self.busy_retry_delay = busy_retry_delay
         self.retry_protocol = retry_protocol
+        #: How long a label stays out of use after its transaction got its answer,
+        #: for a copy of that answer to pass; ``None``: the split timeout; 0 for a
+        #: medium that never duplicates. A transaction that ended without its
+        #: answer holds its label for twice the split timeout whatever this says.
+        self.duplicate_window = duplicate_window
         self._labels = LabelPool()
+        #: Destination physical ID -> transactions waiting for a free label, in order.
+        self._waiting: dict[int, deque[Transaction]] = {}
         self._next_tid = 1
         self._transactions: dict[int, Transaction] = {}
         #: (destination physical ID << 6 | label) -> the transaction holding it.
@@ -111,41 +132,51 @@ class Requester:
 
     @property
     def outstanding(self) -> int:
+        """Transactions still owed an event, those waiting for a label included."""
         return len(self._transactions)
 
+    @property
+    def queued(self) -> int:
+        """Transactions not sent yet because every label to their destination is out of use."""
+        return sum(len(waiting) for waiting in self._waiting.values())
+
     def in_flight(self) -> dict[int, tuple[int, int]]:
-        """Outstanding transactions: id -> (destination ID, transaction label)."""
-        return {tid: (t.destination_id, t.label) for tid, t in self._transactions.items()}
+        """Transactions sent and not ended: id -> (destination ID, transaction label)."""
+        return {
+            tid: (t.destination_id, t.label)
+            for tid, t in self._transactions.items()
+            if t.label >= 0
+        }
 
     # -- starting transactions ---------------------------------------------------------
     def read_quadlet(self, destination_id: int, offset: int, now: float) -> int:
         _check_offset(offset)
-        key, label = self._take_label(destination_id)
-        request = _new_read_quadlet(destination_id, label, self._node_id, offset)
+        key, label = self._take_label(destination_id, now)
+        request = _new_read_quadlet(destination_id, label & 0x3F, self._node_id, offset)
         return self._start(key, label, request, -1, True, now)
 
     def read_block(self, destination_id: int, offset: int, length: int, now: float) -> int:
         _check_offset(offset)
         if not 0 <= length < _LENGTH_LIMIT:
             raise ValueError(f"block length {length} is outside 0..{_LENGTH_LIMIT - 1}")
-        key, label = self._take_label(destination_id)
-        request = _new_read_block(destination_id, label, self._node_id, offset, length)
+        key, label = self._take_label(destination_id, now)
+        request = _new_read_block(destination_id, label & 0x3F, self._node_id, offset, length)
         return self._start(key, label, request, length, True, now)
 
     def write_quadlet(self, destination_id: int, offset: int, value: int, now: float) -> int:
         _check_offset(offset)
         if not 0 <= value < 1 << 32:
             raise ValueError(f"quadlet value {value:#x} does not fit 32 bits")
-        key, label = self._take_label(destination_id)
-        request = _new_write_quadlet(destination_id, label, self._node_id, offset, value)
+        key, label = self._take_label(destination_id, now)
+        request = _new_write_quadlet(destination_id, label & 0x3F, self._node_id, offset, value)
         return self._start(key, label, request, -1, False, now)
 
     def write_block(self, destination_id: int, offset: int, data: bytes, now: float) -> int:
         _check_offset(offset)
         if len(data) >= _LENGTH_LIMIT:
             raise ValueError(f"{len(data)} bytes do not fit a block write")
-        key, label = self._take_label(destination_id)
-        request = _new_write_block(destination_id, label, self._node_id, offset, bytes(data))
+        key, label = self._take_label(destination_id, now)
+        request = _new_write_block(destination_id, label & 0x3F, self._node_id, offset, bytes(data))
         return self._start(key, label, request, -1, False, now)
 
     def lock(
@@ -166,35 +197,78 @@ class Requester:
             raise ValueError("the argument and the data of a lock must be equally long")
         if not 1 <= extended_tcode <= 0xFFFF:
             raise ValueError(f"extended tcode {extended_tcode:#x} is out of range")
-        key, label = self._take_label(destination_id)
+        key, label = self._take_label(destination_id, now)
         operands = bytes(argument) + bytes(data)
-        request = _new_lock(destination_id, label, self._node_id, offset, extended_tcode, operands)
+        request = _new_lock(
+            destination_id, label & 0x3F, self._node_id, offset, extended_tcode, operands
+        )
         # The old value is as long as the data operand; vendor-dependent locks may differ.
         length = -1 if extended_tcode == ExtendedTCode.vendor_dependent else len(data)
         return self._start(key, label, request, length, True, now)
 
-    def _take_label(self, destination_id: int) -> tuple[int, int]:
+    def _take_label(self, destination_id: int, now: float) -> tuple[int, int]:
+        """(key, label) for a new transaction; label -1: it has to wait for one."""
         # Keyed by physical ID alone: a response may name the local bus as 0x3FF
         # or by its number, and both must find the transaction.
         key = destination_id & 0x3F
-        return key, self._labels.take(key, destination_id)
+        if key in self._waiting:
+            return key, -1  # no overtaking the transactions already waiting
+        label = self._labels.take(key, now)
+        return key, -1 if label is None else label
 
     def _start(
         self, key: int, label: int, request: Request, length: int, expects: bool, now: float
     ) -> int:
         tid = self._next_tid
         self._next_tid = tid + 1
-        self._outbox.append(request)
-        if key == _BROADCAST_NODE and not expects:
-            # Nobody acks a broadcast: the write is complete once it is sent.
-            self._labels.give_back(key, label)
-            self._events.append(WriteCompleted(tid))
-            return tid
         transaction = Transaction(tid, key, label, request, length, expects)
         self._transactions[tid] = transaction
+        if label >= 0:
+            self._send_first(transaction, now)
+        else:
+            waiting = self._waiting.setdefault(key, deque())
+            waiting.append(transaction)
+            if len(waiting) == 1:
+                self._wait_for_label(transaction)
+        return tid
+
+    def _send_first(self, transaction: Transaction, now: float) -> None:
+        self._outbox.append(transaction.request)
+        key, label = transaction.key, transaction.label
+        if key == _BROADCAST_NODE and not transaction.expects_response:
+            # Nobody acks a broadcast: the write is complete once it is sent, and
+            # no answer will ever use its label.
+            self._labels.release(key, label)
+            del self._transactions[transaction.tid]
+            self._events.append(WriteCompleted(transaction.tid))
+            return
         self._by_label[key << 6 | label] = transaction
         self._wait(transaction, AWAIT_ACK, now + self.ack_timeout)
-        return tid
+
+    def _wait_for_label(self, head: Transaction) -> None:
+        """Set the timer of the first waiting transaction to a destination."""
+        free_from = self._labels.free_from(head.key)
+        if free_from is not None:
+            self._wait(head, QUEUED, free_from)
+        else:
+            # Every label belongs to a live transaction; the first to end starts
+            # this one. Any timer entry it had goes stale.
+            head.state, head.deadline, head.queued = QUEUED, math.inf, math.inf
+
+    def _start_waiting(self, key: int, now: float) -> None:
+        """Send the transactions waiting for labels to ``key`` that can have one now."""
+        waiting = self._waiting[key]
+        while waiting:
+            label = self._labels.take(key, now)
+            if label is None:
+                self._wait_for_label(waiting[0])
+                return
+            transaction = waiting.popleft()
+            transaction.label = label
+            transaction.request = replace(transaction.request, tlabel=label)
+            transaction.queued = math.inf  # its label timer, if any, is stale now
+            self._send_first(transaction, now)
+        del self._waiting[key]
 
     # -- output ------------------------------------------------------------------------
     def packets_to_send(self) -> list[AsyncPacket]:
@@ -231,14 +305,14 @@ class Requester:
         if step is _AWAIT:
             self._wait(transaction, AWAIT_RESPONSE, now + self.split_timeout)
         elif step is _COMPLETE:
-            self._end(transaction, WriteCompleted(transaction.tid))
+            self._end(transaction, WriteCompleted(transaction.tid), now, self._answered_hold())
         elif step is _RETRY:
             assert ack_code is not None
             self._retry(transaction, ack_code, now)
         else:
             assert reaction.reason is not None
             detail = reaction.detail or _ack_name(ack_code)
-            self._fail(transaction, reaction.reason, detail=detail)
+            self._fail(transaction, reaction.reason, now, detail=detail)
 
     def receive_response(self, packet: AsyncPacket, now: float) -> int | None:
         """Take a response; the ack to send back for it, or ``None`` if it is not ours.
@@ -259,11 +333,11 @@ class Requester:
             return _ACK_COMPLETE
         mismatch = mismatch_of(transaction, packet)
         if mismatch:
-            self._fail(transaction, FailureReason.response_mismatch, detail=mismatch)
+            self._fail(transaction, FailureReason.response_mismatch, now, detail=mismatch)
         elif packet.rcode != _RESP_COMPLETE:
-            self._fail(transaction, FailureReason.rcode_error, rcode=packet.rcode)
+            self._fail(transaction, FailureReason.rcode_error, now, rcode=packet.rcode)
         else:
-            self._end(transaction, completion(transaction, packet))
+            self._end(transaction, completion(transaction, packet), now, self._answered_hold())
         return _ACK_COMPLETE
 
     def _unexpected(self, packet: Response, key: int, transaction: Transaction | None) -> None:
@@ -300,18 +374,26 @@ class Requester:
                 heapq.heappush(timers, (transaction.deadline, tid))
                 continue
             transaction.queued = math.inf
-            if transaction.state == AWAIT_ACK:
-                self._fail(transaction, FailureReason.no_ack, detail="ack timeout")
-            elif transaction.state == AWAIT_RESPONSE:
-                self._fail(transaction, FailureReason.response_timeout, detail="split timeout")
+            state = transaction.state
+            if state == AWAIT_ACK:
+                self._fail(transaction, FailureReason.no_ack, now, detail="ack timeout")
+            elif state == AWAIT_RESPONSE:
+                self._fail(transaction, FailureReason.response_timeout, now, detail="split timeout")
+            elif state == QUEUED:
+                self._start_waiting(transaction.key, now)
             else:
                 self._send_again(transaction, now)
 
-    def bus_reset(self, generation: int, node_id: int | None = None) -> None:
-        """A bus reset: every outstanding transaction fails; new ones use ``generation``."""
+    def bus_reset(self, *, generation: int, node_id: int | None = None) -> None:
+        """A bus reset: every outstanding transaction fails; new ones use ``generation``.
+
+        The reset voids every answer of the old generation, so every label is free
+        again at once, held ones included.
+        """
         detail = f"bus generation {self._generation} -> {generation}"
+        self._waiting.clear()
         for transaction in list(self._transactions.values()):
-            self._fail(transaction, FailureReason.bus_reset, detail=detail)
+            self._fail(transaction, FailureReason.bus_reset, None, detail=detail)
         self._generation = generation
         if node_id is not None:
             self._node_id = node_id
@@ -337,6 +419,7 @@ class Requester:
             self._fail(
                 transaction,
                 FailureReason.busy_retries_exhausted,
+                now,
                 detail=f"{transaction.busy} retries, then {_ack_name(ack)}",
             )
             return
@@ -352,23 +435,49 @@ class Requester:
         self._outbox.append(transaction.request)
         self._wait(transaction, AWAIT_ACK, now + self.ack_timeout)
 
+    def _answered_hold(self) -> float:
+        window = self.duplicate_window
+        return self.split_timeout if window is None else window
+
     def _fail(
         self,
         transaction: Transaction,
         reason: FailureReason,
+        now: float | None,
         *,
         rcode: int | None = None,
         detail: str = "",
     ) -> None:
-        self._end(transaction, TransactionFailed(transaction.tid, reason, rcode, detail))
+        request = transaction.request
+        unknown = (
+            reason in _UNKNOWN_OUTCOME
+            and transaction.state in (AWAIT_ACK, AWAIT_RESPONSE)
+            and not isinstance(request, (QuadletReadRequest, BlockReadRequest))
+        )
+        if unknown:
+            kind = "lock" if isinstance(request, LockRequest) else "write"
+            detail = f"{detail}; outcome unknown: the {kind} may have been performed"
+        # Without its answer, the answer itself may still come: sent as late as the
+        # split timeout allows a responder, then delayed as long as the medium may
+        # delay a packet (the split timeout again). With it, only a copy may come.
+        hold = 2 * self.split_timeout if reason in _UNANSWERED else self._answered_hold()
+        event = TransactionFailed(transaction.tid, reason, rcode, detail, unknown)
+        self._end(transaction, event, now, hold)
 
-    def _end(self, transaction: Transaction, event: Event) -> None:
-        key = transaction.key << 6 | transaction.label
-        del self._by_label[key]
+    def _end(self, transaction: Transaction, event: Event, now: float | None, hold: float) -> None:
+        """Report ``event``; ``now`` ``None``: a bus reset, which frees every label itself."""
         del self._transactions[transaction.tid]
-        self._ended[key] = transaction.tid
-        self._labels.give_back(transaction.key, transaction.label)
         self._events.append(event)
+        label = transaction.label
+        if label < 0:
+            return  # never sent
+        key = transaction.key << 6 | label
+        del self._by_label[key]
+        self._ended[key] = transaction.tid
+        if now is not None:
+            self._labels.release(transaction.key, label, now + hold if hold > 0 else None)
+            if transaction.key in self._waiting:
+                self._start_waiting(transaction.key, now)
         # Transactions mostly end in the order they started: dropping the stale
         # timers at the top now keeps the heap as small as the work in flight.
         self._drop_stale_timers()

@@ -40,9 +40,8 @@ from fw1394.packets import (
 )
 from fw1394.packets.asynchronous import decode_async
 from fw1394.packets.fast import builder, decode_sound
+from fw1394.packets.nodeid import BROADCAST_PHY, LOCAL_BUS, bus_of, phy_of
 
-_BROADCAST_NODE = 63
-_LOCAL_BUS = 0x3FF
 # A response per request: built straight into the frozen dataclass's slots.
 _ROUTE = ("destination_id", "tlabel", "source_id")
 _new_read_quadlet = builder(QuadletReadResponse, *_ROUTE, "quadlet_data")
@@ -176,7 +175,7 @@ class Responder:
         self._busy_left = count
         self._busy_reply = Reply(ack, None, False)
 
-    def bus_reset(self, node_id: int, generation: int) -> None:
+    def bus_reset(self, *, node_id: int, generation: int) -> None:
         """Take the physical ID the node got in the new bus generation."""
         self._node_id = node_id
         self._generation = generation
@@ -203,12 +202,12 @@ class Responder:
             return _SILENT  # Screen.not_a_request
         assert isinstance(packet, Request)
         destination = packet.destination_id
-        node = destination & 0x3F
-        broadcast = node == _BROADCAST_NODE
-        if not (broadcast or node == self._node_id & 0x3F):
+        node = phy_of(destination)
+        broadcast = node == BROADCAST_PHY
+        if not (broadcast or node == phy_of(self._node_id)):
             return _SILENT  # Screen.not_addressed
-        bus = destination >> 6
-        if not (bus == _LOCAL_BUS or self._ignore_bus_id or bus == self._node_id >> 6):
+        bus = bus_of(destination)
+        if not (bus == LOCAL_BUS or self._ignore_bus_id or bus == bus_of(self._node_id)):
             return _SILENT  # Screen.not_addressed
         serve = self._serve.get(kind)
         if serve is None and (broadcast or self._policy.unsupported_tcode == "silent"):

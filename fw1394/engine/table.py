@@ -15,11 +15,13 @@ each path as a sequence diagram.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from enum import Enum
 from typing import Final, NamedTuple
 
 from fw1394.engine.events import FailureReason
 from fw1394.packets import AckCode, RCode, Retry, TCode
+from fw1394.packets.tcodes import RESPONSE_OF_REQUEST
 
 
 class Answer(NamedTuple):
@@ -199,11 +201,6 @@ RETRY_CODES: Final[dict[tuple[str, int], Retry]] = {
     ("dual", AckCode.ack_tardy): Retry.retry_X,
 }
 
-#: request tcode -> the tcode its response must carry.
-RESPONSE_TCODES: Final[dict[int, int]] = {
-    TCode.write_quadlet_request: TCode.write_response,
-    TCode.write_block_request: TCode.write_response,
-    TCode.read_quadlet_request: TCode.read_quadlet_response,
-    TCode.read_block_request: TCode.read_block_response,
-    TCode.lock_request: TCode.lock_response,
-}
+#: request tcode -> the tcode its response must carry (defined in packets, named here
+#: for the engine).
+RESPONSE_TCODES: Final[Mapping[TCode, TCode]] = RESPONSE_OF_REQUEST

@@ -19,8 +19,8 @@ from fw1394.packets import (
     TCode,
 )
 
-#: Where a transaction stands.
-AWAIT_ACK, AWAIT_RESPONSE, BUSY_WAIT = 0, 1, 2
+#: Where a transaction stands; QUEUED: not sent yet, waiting for a free label.
+AWAIT_ACK, AWAIT_RESPONSE, BUSY_WAIT, QUEUED = 0, 1, 2, 3
 _LOCAL_BUS = 0x3FF
 _RESPONSE_CLASS: dict[int, type[AsyncPacket]] = {
     request: ASYNC_CLASSES[TCode(response)] for request, response in RESPONSE_TCODES.items()
@@ -56,6 +56,7 @@ class Transaction:
         self.tid = tid
         #: The destination's physical ID, which owns the label.
         self.key = key
+        #: -1 while the transaction waits for a free label.
         self.label = label
         self.destination_id = request.destination_id
         #: The packet as last sent (a busy retry changes its retry code).
@@ -65,7 +66,7 @@ class Transaction:
         self.response_class = _RESPONSE_CLASS[request.LAYOUT.tcode]
         #: Reads and locks need a response packet; a write may end with its ack.
         self.expects_response = expects
-        self.state = AWAIT_ACK
+        self.state = AWAIT_ACK if label >= 0 else QUEUED
         #: When the current state times out.
         self.deadline = 0.0
         #: When this transaction's live timer entry is due (never after ``deadline``);

@@ -14,15 +14,33 @@ import time
 from fw1394.fuzz.target import Observed, TargetCrash, TargetGone, Wire
 from fw1394.fuzz.tunnel import Replies
 from fw1394.fuzz.udptarget import TUNNEL_VISIBILITY
+from fw1394.packets.nodeid import MAX_NODES, node_id
 from fw1394.transport.config import BusConfig, BusNameError
+from fw1394.transport.link import ACK, ASYNC_PACKET, BusRefusedError, LinkLayer
 from fw1394.transport.procs import pid_namespace, process_alive
 from fw1394.transport.station import Station
-from fw1394.transport.wire import FrameKind, MemberInfo
+from fw1394.transport.wire import FrameHeader, MemberInfo
 
-LOCAL_BUS = 0x3FF
 _POLL = 0.002
 _JOIN_TIMEOUT = 10.0
-_DATA_KINDS = frozenset({FrameKind.ack, FrameKind.async_packet})
+
+
+class NodeLink(LinkLayer):
+    """The fuzzer's link: keeps what physical ID ``phy`` sends, for :class:`Replies`.
+
+    Bus resets reach no engine here: :meth:`BusTarget.problem` judges them from
+    the member table.
+    """
+
+    def __init__(self, station: Station, phy: int) -> None:
+        super().__init__(station.send, station)
+        self.phy = phy
+        #: (kind, payload) of each ack or packet from the node, oldest first.
+        self.frames: list[tuple[int, bytes]] = []
+
+    def take(self, header: FrameHeader, payload: bytes, now: float) -> None:
+        if header.sender_phy == self.phy and header.kind in (ACK, ASYNC_PACKET):
+            self.frames.append((header.kind, payload))
 
 
 class BusTarget:
@@ -36,11 +54,14 @@ class BusTarget:
         self.description = f"bus:{config.name}/{phy}"
         self.timeout = timeout
         self.phy = phy
-        self.node_id = LOCAL_BUS << 6 | phy
+        self.node_id = node_id(phy)
         self.station = Station(config, contender=True, host=True, poll_interval=_POLL)
-        self._due = 0.0
+        self.link = NodeLink(self.station, phy)
         try:
             self.member = self._join()
+        except BusRefusedError as error:
+            self.station.close()
+            raise TargetGone(f"{self.description}: the bus refused the fuzzer: {error}") from None
         except BaseException:
             self.station.close()
             raise
@@ -49,7 +70,7 @@ class BusTarget:
     def open(cls, spec: str, *, timeout: float) -> BusTarget:
         """``spec`` is ``NAME/NODE``: a bus name and a physical ID."""
         name, slash, node = spec.rpartition("/")
-        if not slash or not node.isdigit() or not 0 <= int(node) < 63:
+        if not slash or not node.isdigit() or not 0 <= int(node) < MAX_NODES:
             raise TargetGone(f"bus target {spec!r}: use bus:NAME/NODE, NODE a physical ID 0-62")
         try:
             config = BusConfig(name or "default")
@@ -70,42 +91,23 @@ class BusTarget:
             if time.monotonic() > limit:
                 what = "no node with that physical ID" if membership.ready else "no bus heard"
                 raise TargetGone(f"{self.description}: {what} within {_JOIN_TIMEOUT} s")
-            self._pump()
-
-    def _pump(self) -> tuple[int, int, bytes] | None:
-        """One frame from the node (kind, sequence, payload), after any bus housekeeping."""
-        station = self.station
-        frame = station.receive()
-        if frame is None or frame[0].kind not in _DATA_KINDS:
-            # Bus management went by (or nothing): bus resets are judged by problem(),
-            # from the member table, so the changes themselves are not needed.
-            station.changes()
-        now = time.monotonic()
-        if now >= self._due:
-            station.service(now)
-            station.changes()
-            self._due = station.next_deadline()
-        if frame is None:
-            return None
-        header, payload = frame
-        if header.sender_phy != self.phy or header.generation != station.generation:
-            return None
-        return header.kind, header.sequence, payload
+            self.link.turn()
+            self.link.frames.clear()
 
     def exchange(self, batch: list[Wire], now: float) -> list[Observed]:
-        station = self.station
-        sequences = [station.send(FrameKind.async_packet, self.phy, wire.raw) for wire in batch]
+        link, frames = self.link, self.link.frames
+        frames.clear()  # whatever came late for an earlier batch
+        sequences = [self.station.send(ASYNC_PACKET, self.phy, wire.raw) for wire in batch]
         replies = Replies(batch, sequences)
         limit = time.monotonic() + self.timeout
         while not replies.complete() and time.monotonic() < limit:
-            frame = self._pump()
-            if frame is None:
-                continue
-            kind, _, payload = frame
-            if kind == FrameKind.ack:
-                replies.on_ack(payload)
-            elif kind == FrameKind.async_packet:
-                replies.on_response(payload)
+            link.turn()
+            for kind, payload in frames:
+                if kind == ACK:
+                    replies.on_ack(payload)
+                else:
+                    replies.on_response(payload)
+            frames.clear()
         if not replies.complete():
             problem = self.problem()
             if problem is not None:

@@ -21,14 +21,13 @@ from fw1394.packets import (
     Request,
     name_of,
 )
+from fw1394.packets.nodeid import BROADCAST_PHY, LOCAL_BUS, bus_of, phy_of
 
 CONTRACTS: dict[str, ResponderPolicy] = {
     "thesis": THESIS_FPGA,
     "jhu": JHU_FIRMWARE,
     "ieee1394": IEEE1394_NODE,
 }
-BROADCAST_NODE = 63
-LOCAL_BUS = 0x3FF
 _FAMILIES: dict[type[AsyncPacket], str] = {
     QuadletReadRequest: "read",
     BlockReadRequest: "read",
@@ -61,17 +60,17 @@ def silence_reason(
         return "undecodable"
     if not isinstance(packet, Request) or type(packet) not in _FAMILIES:
         return "not-a-request"
-    node = packet.destination_id & 0x3F
-    bus = packet.destination_id >> 6
-    if not policy.ignore_bus_id and bus not in (LOCAL_BUS, node_id >> 6):
+    node = phy_of(packet.destination_id)
+    bus = bus_of(packet.destination_id)
+    if not policy.ignore_bus_id and bus not in (LOCAL_BUS, bus_of(node_id)):
         return "other-bus"
-    if node not in (BROADCAST_NODE, node_id & 0x3F):
+    if node not in (BROADCAST_PHY, phy_of(node_id)):
         return "other-node"
     if isinstance(packet, LockRequest) and not policy.locks:
         return "unsupported-tcode"
     if damaged:
         return _damage(packet)
-    if node == BROADCAST_NODE:
+    if node == BROADCAST_PHY:
         return "broadcast"
     return "contract"
 

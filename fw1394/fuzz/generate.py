@@ -35,12 +35,12 @@ from fw1394.packets import (
     WriteResponse,
 )
 from fw1394.packets.fast import encode_packet
+from fw1394.packets.nodeid import BROADCAST_PHY, LOCAL_BUS, MAX_NODES, bus_of, phy_of
+from fw1394.packets.nodeid import node_id as node_id_of
 
 T = TypeVar("T")
 #: The 1394a S400 limit on a block; longer ones are a classic parser trap.
 MAX_BLOCK = 2048
-BROADCAST_NODE = 63
-LOCAL_BUS = 0x3FF
 
 #: Packet kinds and how often they are made: mostly requests, since those are
 #: what a node serves, but every kind the wire can carry turns up.
@@ -88,7 +88,7 @@ class Generator:
         *,
         corpus_share: float = 0.3,
         mutate_share: float = 0.2,
-        source_id: int = LOCAL_BUS << 6 | 62,
+        source_id: int = node_id_of(MAX_NODES - 1),
     ) -> None:
         self.node_id = node_id
         self.model = model
@@ -167,18 +167,20 @@ class Generator:
     # -- fields -------------------------------------------------------------------------
     def destination(self) -> int:
         rng = self.rng
-        node, bus = self.node_id & 0x3F, self.node_id >> 6
+        node, bus = phy_of(self.node_id), bus_of(self.node_id)
         draw = rng.random()
         if draw < 0.70:
             return self.node_id
         if draw < 0.78:
-            return bus << 6 | rng.choice([n for n in (0, 1, 2, 62, node ^ 1) if n != node])
+            others = [n for n in (0, 1, 2, MAX_NODES - 1, node ^ 1) if n != node]
+            return node_id_of(rng.choice(others), bus)
         if draw < 0.84:
-            return bus << 6 | BROADCAST_NODE
+            return node_id_of(BROADCAST_PHY, bus)
         if draw < 0.90:
-            return rng.choice([b for b in (0, 1, 0x3FE, LOCAL_BUS) if b != bus]) << 6 | node
+            buses = [b for b in (0, 1, LOCAL_BUS - 1, LOCAL_BUS) if b != bus]
+            return node_id_of(node, rng.choice(buses))
         if draw < 0.93:
-            return rng.randrange(LOCAL_BUS) << 6 | BROADCAST_NODE
+            return node_id_of(BROADCAST_PHY, rng.randrange(LOCAL_BUS))
         return rng.getrandbits(16)
 
     def offset(self) -> int:

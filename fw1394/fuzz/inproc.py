@@ -7,7 +7,7 @@ clock, so the reference model runs in lockstep and compares exactly.
 from __future__ import annotations
 
 from fw1394.engine import ResponderPolicy
-from fw1394.engine.defects import PACKET_DEFECTS, DefectiveResponder
+from fw1394.engine.defects import DefectiveResponder
 from fw1394.fuzz.reference import board
 from fw1394.fuzz.target import SILENCE, Observed, TargetCrash, Visibility, Wire
 
@@ -37,8 +37,7 @@ class InprocTarget:
         self.responder = self._fresh()
 
     def _fresh(self) -> DefectiveResponder:
-        board_defects = self.defects - PACKET_DEFECTS.keys() if self.kind != "memory" else None
-        space = board(self.kind, self.board_id, board_defects or frozenset())
+        space = board(self.kind, self.board_id, self.defects)
         return DefectiveResponder(self.node_id, space, self.policy, defects=self.defects)
 
     def exchange(self, batch: list[Wire], now: float) -> list[Observed]:

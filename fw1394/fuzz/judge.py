@@ -17,6 +17,7 @@ from fw1394.fuzz.reference import Certainty
 from fw1394.fuzz.target import Observed, Visibility
 from fw1394.packets import AsyncPacket, PacketError, RCode, WriteResponse, name_of
 from fw1394.packets.asynchronous import decode_async
+from fw1394.packets.nodeid import phy_of
 
 #: The oracles, as the findings name them.
 ORACLES = ("silence", "reply", "liveness", "state", "process", "interface")
@@ -129,7 +130,7 @@ def _field_difference(
     for name in names:
         a, b = getattr(want, name, None), getattr(got, name, None)
         if name == "source_id" and node_bits_only and a is not None and b is not None:
-            a, b = a & 0x3F, b & 0x3F
+            a, b = phy_of(a), phy_of(b)
         if a != b:
             return name
     return None

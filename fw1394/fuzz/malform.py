@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from fw1394.crc import crc32, padded
 from fw1394.packets import LAYOUTS, AsyncPacket, Layout, PacketError
+from fw1394.packets.accessors import TCODE
 from fw1394.packets.asynchronous import decode_async, encode_async, tcode_of
 from fw1394.packets.fast import HEADER_SIZES
 
@@ -134,7 +135,7 @@ def with_tcode(raw: bytes, tcode: int) -> bytes:
     if found is None:
         return raw
     layout, fields = found
-    fields["tcode"] = tcode & 0xF
+    fields["tcode"] = tcode & TCODE.mask
     size = _QUADLET * layout.sealed_header.count
     return sealed(layout.header.pack(fields)) + raw[size:]
 

@@ -1,16 +1,19 @@
 """Destination offsets worth sending: each board's registers and the 1394 boundaries.
 
 A random 48-bit offset almost never hits a register, so requests mostly go
-where the board decodes something (from its documentation in
-``docs/boards/``), to the CSR and configuration-ROM space every node has, and
-to the edges where parsers go wrong: the top of the address space, the JHU
-"fake broadcast" offset 0xFFFF_FFFF_0000, and offsets that alias a register
-above the 16 bits the thesis and JHU boards decode.
+where the board decodes something (derived from the register map its kind
+registers, :mod:`fw1394.boards.regmap`), to the CSR and configuration-ROM
+space every node has, and to the edges where parsers go wrong: the top of the
+address space, the JHU "fake broadcast" offset 0xFFFF_FFFF_0000, and offsets
+that alias a register above the 16 bits the thesis and JHU boards decode.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+from fw1394.boards.registry import BOARDS
+from fw1394.boards.regmap import RegisterMap
 
 OFFSET_BITS = 48
 OFFSET_MASK = (1 << OFFSET_BITS) - 1
@@ -55,28 +58,40 @@ class OffsetModel:
     quadlet_index: bool
 
 
-def _qla1() -> OffsetModel:
-    board = tuple(range(16))
-    channels = tuple(c << 4 | r for c in range(1, 5) for r in range(13))
-    hub = (0x1000, 0x1001, 0x1010, 0x1022, 0x1800, 0x1801, 0x1802, 0x1803)
-    csr = tuple(CSR_BASE + b for b in (0, 4, 8, 0x18, 0x1C)) + tuple(
-        CONFIG_ROM + 4 * i for i in range(0, 32, 3)
+def from_map(registers: RegisterMap) -> OffsetModel:
+    """The offsets worth sending to a board whose register map is ``registers``.
+
+    Every register, a few elements of each array, the map's spots; the writable
+    registers (state a write can damage) are the sweep.
+    """
+    spots: list[int] = []
+    sweep: list[int] = []
+    for placed in registers.placed():
+        register, step = placed.register, registers.step(placed.group)
+        elements = _array_spots(register.count)
+        spots += (placed.address + step * n for n in elements)
+        if register.access == "rw":
+            if register.count == 1:
+                sweep.append(placed.address)
+            else:
+                sweep += (placed.address + step * n for n in _array_sweep(register.count))
+    spots += registers.spots
+    return OffsetModel(
+        tuple(dict.fromkeys(spots)),
+        tuple(dict.fromkeys(sweep)),
+        probe=registers.offset(registers.probe),
+        quadlet_index=registers.quadlet_index,
     )
-    sweep = (0, 1, 2, 3, 6, 11, *(c << 4 | r for c in range(1, 5) for r in (1, 4, 8)))
-    return OffsetModel(board + channels + hub + csr, sweep, probe=4, quadlet_index=True)
 
 
-def _snake2010() -> OffsetModel:
-    board = tuple(range(8))
-    channels = tuple(c << 4 | r for c in range(1, 8) for r in range(8))
-    sweep = (0, 1, 2, 3, *(c << 4 | r for c in range(1, 8) for r in (1, 2, 4)))
-    return OffsetModel(board + channels + (0xFF, 0x100), sweep, probe=4, quadlet_index=True)
+def _array_spots(count: int) -> tuple[int, ...]:
+    # The first few elements, the middle, the last two and one past the end.
+    picks = (0, 1, 2, 4, 0x40, 0x200, 0x400, count // 2, count - 2, count - 1, count)
+    return tuple(sorted({n for n in picks if 0 <= n <= count})) if count > 1 else (0,)
 
 
-def _memory(size: int = 0x1_0000) -> OffsetModel:
-    spots = (0, 4, 8, 0x10, 0x100, 0x800, 0x1000, size // 2, size - 8, size - 4, size)
-    sweep = (*range(0, 0x40, 4), size // 2, size - 4)
-    return OffsetModel((*spots, 2, 6, size - 2), sweep, probe=0, quadlet_index=False)
+def _array_sweep(count: int) -> tuple[int, ...]:
+    return (*range(min(count, 16)), count // 2, count - 1)
 
 
 def _generic() -> OffsetModel:
@@ -85,17 +100,12 @@ def _generic() -> OffsetModel:
     return OffsetModel(spots, spots[:8], probe=0, quadlet_index=False)
 
 
-MODELS = {
-    "qla1": _qla1(),
-    "snake2010": _snake2010(),
-    "snake2010-ztheta": _snake2010(),
-    "memory": _memory(),
-}
-
-
 def offset_model(kind: str | None) -> OffsetModel:
-    """The offsets of board ``kind`` (``None`` or unknown: a generic node)."""
-    return MODELS.get(kind or "", _generic())
+    """The offsets of board ``kind`` (``None``, unknown or unmapped: a generic node)."""
+    entry = BOARDS.get(kind or "")
+    if entry is None or entry.registers is None:
+        return _generic()
+    return from_map(entry.registers)
 
 
 def aliased(offset: int, high: int) -> int:

@@ -19,6 +19,7 @@ from __future__ import annotations
 from enum import IntEnum
 
 from fw1394.boards import make_board
+from fw1394.boards.registry import board_defects
 from fw1394.engine import Reply, Responder, ResponderPolicy
 from fw1394.engine.space import AddressSpace
 from fw1394.packets import AsyncPacket
@@ -62,9 +63,7 @@ def board(kind: str | None, board_id: int, defects: frozenset[str] = frozenset()
     """A fresh board of ``kind`` (``None``: an :class:`OpenSpace`)."""
     if kind is None:
         return OpenSpace()
-    if kind == "memory":
-        return make_board(kind)  # plain memory has no board ID and no defects
-    return make_board(kind, board_id=board_id, defects=defects)
+    return make_board(kind, board_id=board_id, defects=board_defects(kind, defects))
 
 
 class Reference:
@@ -106,9 +105,9 @@ class Reference:
     def renumber(self, node_id: int) -> None:
         """The target took a new node ID (a bus reset)."""
         self.node_id = node_id
-        self.model.bus_reset(node_id, self.model.generation + 1)
+        self.model.bus_reset(node_id=node_id, generation=self.model.generation + 1)
         if self.twin is not None:
-            self.twin.bus_reset(node_id, self.twin.generation + 1)
+            self.twin.bus_reset(node_id=node_id, generation=self.twin.generation + 1)
 
 
 _SILENT = Reply(None, None, False)

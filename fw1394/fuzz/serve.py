@@ -23,7 +23,6 @@ import time
 from fw1394.engine import ResponderPolicy
 from fw1394.engine.defects import PACKET_DEFECTS, DefectiveResponder
 from fw1394.fuzz.reference import board
-from fw1394.fuzz.tunnel import tlabel_of
 from fw1394.packets import WriteResponse
 from fw1394.packets.eth1394 import (
     CONTROL_WORD_SIZE,
@@ -32,15 +31,8 @@ from fw1394.packets.eth1394 import (
     build_response,
 )
 from fw1394.packets.fast import encode_packet
-from fw1394.transport.wire import (
-    HEADER_SIZE,
-    AckPayload,
-    FrameError,
-    FrameHeader,
-    FrameKind,
-    ack_byte,
-    parse_header,
-)
+from fw1394.transport.link import ResponderLink
+from fw1394.transport.wire import HEADER_SIZE, FrameError, FrameHeader, parse_header
 
 MAX_DATAGRAM = 65_535
 #: The receive timeout: how often the loop looks at its deadline.
@@ -94,8 +86,11 @@ class TunnelNode:
             self.sock.close()
             raise
         self.address = self.sock.getsockname()
-        self._epoch = time.monotonic()
+        self.link = ResponderLink(self.responder, self._send, epoch=time.monotonic())
         self._sequence = 0
+        # The frame being answered and its sender's address: replies echo its tag and
+        # generation (a tunnel has no bus of its own) and go back where it came from.
+        self._to: tuple[FrameHeader, tuple[str, int]] | None = None
 
     def serve(self, duration: float | None = None) -> None:
         """Answer datagrams until ``duration`` seconds have passed (forever: None)."""
@@ -106,9 +101,9 @@ class TunnelNode:
                 datagram, sender = sock.recvfrom(MAX_DATAGRAM)
             except TimeoutError:
                 continue
-            now = time.monotonic() - self._epoch
+            now = time.monotonic()
             if self.eth1394:
-                self._eth1394(datagram, sender, now)
+                self._eth1394(datagram, sender, now - self.link.epoch)
             else:
                 self._tunnel(datagram, sender, now)
 
@@ -129,24 +124,12 @@ class TunnelNode:
             header = parse_header(datagram)
         except FrameError:
             return
-        if header.kind != FrameKind.async_packet:
-            return
-        payload = datagram[HEADER_SIZE:]
-        reply = self.responder.receive(payload, now)
-        if reply.ack is None and reply.response is None:
-            return
-        tlabel = tlabel_of(payload) or 0
-        response = b"" if reply.response is None else encode_packet(reply.response)
-        if reply.ack is not None:
-            concatenated = response if reply.concatenated else b""
-            ack = AckPayload(ack_byte(reply.ack), tlabel, header.sequence, concatenated)
-            self._send(FrameKind.ack, header, ack.pack(), sender)
-            if reply.concatenated:
-                return
-        if response:
-            self._send(FrameKind.async_packet, header, response, sender)
+        self._to = (header, sender)
+        self.link.take(header, datagram[HEADER_SIZE:], now)
 
-    def _send(self, kind: int, to: FrameHeader, payload: bytes, sender: tuple[str, int]) -> None:
+    def _send(self, kind: int, destination: int, payload: bytes) -> None:
+        assert self._to is not None, "a tunnel only answers"
+        to, address = self._to
         self._sequence = (self._sequence + 1) & 0xFFFFFFFF
         frame = FrameHeader(
             kind,
@@ -154,10 +137,10 @@ class TunnelNode:
             sender=_NODE_PHY_MEMBER,
             generation=to.generation,
             sender_phy=to.destination,
-            destination=to.sender_phy,
+            destination=destination,
             sequence=self._sequence,
         )
-        self._send_datagram(frame.pack() + payload, sender)
+        self._send_datagram(frame.pack() + payload, address)
 
     def _send_datagram(self, datagram: bytes, to: tuple[str, int]) -> None:
         # A reply too big for one datagram (a 64 KiB block read) cannot travel:

@@ -5,12 +5,24 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, fields
 from typing import Any
 
+from fw1394.boards.registry import BOARDS
 from fw1394.fuzz.contract import CONTRACTS
+from fw1394.packets.nodeid import node_id
 
-#: The node's own policy when fuzzing a board in-process and none is named: the
-#: thesis boards answer like the thesis FPGA, the QLA like the JHU firmware.
-DEFAULT_POLICIES = {"qla1": "jhu"}
-LOCAL_NODE_0 = 0xFFC0
+#: The contract a node is held to when its kind's own policy is no contract
+#: (``quick`` skips checks a contract is about).
+FALLBACK_POLICY = "thesis"
+LOCAL_NODE_0 = node_id(0)
+
+
+def default_policy(kind: str | None) -> str:
+    """The contract a board of ``kind`` answers by when fuzzed in-process and none is named.
+
+    Its registry policy (the QLA answers like the JHU firmware), when that is a contract.
+    """
+    entry = BOARDS.get(kind or "")
+    policy = entry.policy if entry else FALLBACK_POLICY
+    return policy if policy in CONTRACTS else FALLBACK_POLICY
 
 
 class SettingsError(ValueError):

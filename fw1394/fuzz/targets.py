@@ -18,12 +18,16 @@ from fw1394.fuzz.clock import SimulatedClock, WallClock
 from fw1394.fuzz.contract import CONTRACTS
 from fw1394.fuzz.offsets import OffsetModel, offset_model
 from fw1394.fuzz.reference import Reference
-from fw1394.fuzz.settings import DEFAULT_POLICIES, Settings, SettingsError
+from fw1394.fuzz.settings import Settings, SettingsError, default_policy
 from fw1394.fuzz.target import Target
 from fw1394.fuzz.trial import Trial
 
 SCHEMES = ("inproc", "bus", "udp", "rtl")
-KINDS = tuple(sorted(BOARDS))
+
+
+def kinds() -> tuple[str, ...]:
+    """Board kinds a target can be or be modelled as (the registry, read when asked)."""
+    return tuple(sorted(BOARDS))
 
 
 def target_kind(settings: Settings) -> str | None:
@@ -45,8 +49,8 @@ def check(settings: Settings) -> None:
             " or rtl:PORTMAP"
         )
     for kind in (rest if scheme == "inproc" else None, settings.model):
-        if kind is not None and kind not in KINDS:
-            raise SettingsError(f"unknown board kind {kind!r}; known kinds: {', '.join(KINDS)}")
+        if kind is not None and kind not in BOARDS:
+            raise SettingsError(f"unknown board kind {kind!r}; known kinds: {', '.join(kinds())}")
     if scheme == "inproc":
         if settings.model not in (None, rest):
             raise SettingsError("--model must be the target's own kind in-process")
@@ -70,7 +74,7 @@ def open_target(settings: Settings) -> Target:
     if scheme == "inproc":
         from fw1394.fuzz.inproc import InprocTarget
 
-        policy = settings.policy or DEFAULT_POLICIES.get(rest, "thesis")
+        policy = settings.policy or default_policy(rest)
         return InprocTarget(
             rest,
             board_id=settings.board_id,
@@ -83,7 +87,7 @@ def open_target(settings: Settings) -> Target:
 
         return BusTarget.open(rest, timeout=settings.timeout)
     if scheme == "rtl":
-        from fw1394.rtl.target import open_rtl
+        from fw1394.fuzz.rtl_target import open_rtl
 
         try:
             return open_rtl(
@@ -142,8 +146,7 @@ def open_trial(settings: Settings, target: Target | None = None) -> Trial:
 # -- rtl: (fw1394.rtl) ---------------------------------------------------------------------
 def _rtl_model(spec: str) -> str | None:
     """The board kind a port map names (its register bus is served by that board)."""
-    from fw1394.rtl.portmap import PortMapError, load
-    from fw1394.rtl.target import split_spec
+    from fw1394.rtl.portmap import PortMapError, load, split_spec
 
     try:
         return load(split_spec(spec)[0]).model
@@ -151,21 +154,9 @@ def _rtl_model(spec: str) -> str | None:
         return None
 
 
-def rtl_defects(spec: str) -> dict[str, str]:
-    """The RTL's planted defects, and those of the board serving its register bus."""
-    from fw1394.rtl.defects import RTL_DEFECTS
-
-    known = {name: f"RTL defect: {text}" for name, text in RTL_DEFECTS.items()}
-    model = _rtl_model(spec)
-    for name in sorted(BOARDS[model].defects if model in BOARDS else ()):
-        known[name] = f"board defect of {model} (docs/boards/)"
-    return known
-
-
 def _check_rtl(settings: Settings, spec: str) -> None:
-    from fw1394.rtl.defects import RTL_DEFECTS
-    from fw1394.rtl.portmap import PortMapError, load
-    from fw1394.rtl.target import split_spec
+    from fw1394.rtl.defects import known_rtl_defects
+    from fw1394.rtl.portmap import PortMapError, load, split_spec
 
     try:
         portmap = load(split_spec(spec)[0])
@@ -173,11 +164,9 @@ def _check_rtl(settings: Settings, spec: str) -> None:
         raise SettingsError(str(error)) from None
     if settings.policy is not None:
         raise SettingsError("--policy is for in-process targets; the design answers its own way")
-    model = portmap.model if portmap.served else None
-    served = BOARDS[model].defects if model in BOARDS else frozenset()
-    unknown = sorted(set(settings.defects) - RTL_DEFECTS.keys() - served)
+    known = known_rtl_defects(portmap)
+    unknown = sorted(set(settings.defects) - known.keys())
     if unknown:
         raise SettingsError(
-            f"unknown defect {unknown[0]!r} for an RTL target; known: "
-            + ", ".join(sorted({*RTL_DEFECTS, *served}))
+            f"unknown defect {unknown[0]!r} for an RTL target; known: " + ", ".join(sorted(known))
         )

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
+from fw1394.boards.snake2010.regmap import REGISTER_MAP
 from fw1394.boards.snake2010.rt_blocks import (
     RealtimeInputs,
     build_realtime_write,
@@ -33,15 +34,12 @@ from fw1394.boards.snake2010.spec import (
     POT_ECHO_MASK,
     POT_READ_COMMANDS,
     REALTIME_OFFSET,
-    REG_STATUS,
     SNAKE_ACTUATION_CHANNELS,
     STATUS_BOARD_ID_MASK,
     STATUS_BOARD_ID_SHIFT,
     VALID_BIT,
     WIPER_MAX,
-    Device,
     PotCommand,
-    channel_register,
     pot_frame,
     status_write,
 )
@@ -55,6 +53,9 @@ from fw1394.host.units import (
     split_eeprom_index,
     words_to_float,
 )
+
+#: Offsets come from the board's register map, the one the emulator is checked against.
+_STATUS = REGISTER_MAP.offset("STATUS")
 
 
 class BoardError(RuntimeError):
@@ -118,7 +119,7 @@ class Board(RobotIO):
         self._port.write_block(self._node, REALTIME_OFFSET, block)
         self._commands = [None] * self._channels
         if self._power_request is not None:
-            self._port.write_quadlet(self._node, REG_STATUS, self._power_request)
+            self._port.write_quadlet(self._node, _STATUS, self._power_request)
             self._power_request = None
 
     # --- latched reads --------------------------------------------------
@@ -209,13 +210,13 @@ class Board(RobotIO):
         in the same transaction, so it is its own quadlet write.
         """
         code = _checked(value, DAC_MAX, "DAC code")
-        register = self._register(axis, Device.DAC)
+        register = self._register(axis, "DAC")
         self._port.write_quadlet(self._node, register, VALID_BIT | DAC_SELECT_CURRENT_LIMIT | code)
 
     def set_encoder_preload(self, axis: int, value: int) -> None:
         """Load the 24-bit encoder counter at once (clears its overflow flag)."""
         count = _checked(value, ENCODER_COUNT_MASK, "encoder preload")
-        self._port.write_quadlet(self._node, self._register(axis, Device.ENCODER_PRELOAD), count)
+        self._port.write_quadlet(self._node, self._register(axis, "ENCODER_PRELOAD"), count)
 
     def set_digital_pot_wiper(self, axis: int, value: int) -> None:
         """Set the wiper 0..1023 at once; the feedback gain follows equation (1)."""
@@ -244,11 +245,11 @@ class Board(RobotIO):
             raise IndexError(f"axis {axis} outside 0..{self._channels - 1}")
         return axis
 
-    def _register(self, axis: int, device: Device) -> int:
-        return channel_register(self._index(axis) + 1, device)
+    def _register(self, axis: int, name: str) -> int:
+        return REGISTER_MAP.offset(name, self._index(axis) + 1)
 
     def _pot_write(self, axis: int, command: PotCommand, address: int, data: int) -> None:
-        register = self._register(axis, Device.POT_CONTROL)
+        register = self._register(axis, "POT_CONTROL")
         self._port.write_quadlet(self._node, register, pot_frame(command, address, data))
 
     def _pot_read(self, axis: int, command: PotCommand, address: int = 0) -> int:
@@ -257,7 +258,7 @@ class Board(RobotIO):
         assert command in POT_READ_COMMANDS
         self._pot_write(axis, command, address, 0)
         expected = pot_frame(command, address) & POT_ECHO_MASK
-        register = self._register(axis, Device.POT_DATA)
+        register = self._register(axis, "POT_DATA")
         for _ in range(self._pot_read_attempts):
             word = self._port.read_quadlet(self._node, register)
             if word & POT_DATA_VALID and word & POT_ECHO_MASK == expected:

@@ -10,6 +10,44 @@ from fw1394.packets.enums import AckCode, name_of
 from fw1394.packets.errors import PacketError
 
 ACK_LAYOUT = BitStruct("code" / Nibble, "parity" / Nibble)
+#: Ack codes have four bits: 16 of them.
+ACK_CODES: int = 1 << int(
+    next(f.subcon.length for f in ACK_LAYOUT.subcon.subcons if f.name == "code")
+)
+
+
+#: Keeps the bits of an ack code (where a byte or an int holds one).
+ACK_CODE_MASK = ACK_CODES - 1
+
+
+def _parity(code: int) -> int:
+    # The check nibble is the code's one's complement.
+    return code ^ ACK_CODE_MASK
+
+
+#: The wire byte of every ack code (code and parity as the layout places them).
+ACK_BYTES: tuple[int, ...] = tuple(
+    ACK_LAYOUT.build({"code": code, "parity": _parity(code)})[0] for code in range(ACK_CODES)
+)
+_FIELDS_OF_BYTE = tuple(ACK_LAYOUT.parse(bytes([byte])) for byte in range(256))
+#: Code and parity-check result of every possible byte, looked up by the byte.
+_CODE_OF_BYTE: tuple[int, ...] = tuple(int(f.code) for f in _FIELDS_OF_BYTE)
+_PARITY_OK: tuple[bool, ...] = tuple(f.parity == _parity(f.code) for f in _FIELDS_OF_BYTE)
+
+
+def ack_byte(code: int) -> int:
+    """The wire byte of ack ``code`` (its low four bits): code, then the parity nibble."""
+    return ACK_BYTES[code & ACK_CODE_MASK]
+
+
+def ack_code(byte: int) -> int:
+    """The ack code an ack byte carries, whatever its parity."""
+    return _CODE_OF_BYTE[byte]
+
+
+def ack_parity_ok(byte: int) -> bool:
+    """Whether an ack byte's parity nibble is the complement of its code."""
+    return _PARITY_OK[byte]
 
 
 @dataclass(frozen=True, slots=True)
@@ -29,7 +67,7 @@ class Ack:
 
     @property
     def parity_ok(self) -> bool | None:
-        return None if self.parity is None else self.parity == self.code ^ 0xF
+        return None if self.parity is None else self.parity == _parity(self.code)
 
     @property
     def problems(self) -> tuple[PacketError, ...]:
@@ -57,7 +95,7 @@ def decode_ack(raw: bytes) -> Ack:
 
 
 def encode_ack(ack: Ack) -> bytes:
-    parity = ack.code ^ 0xF if ack.parity is None else ack.parity
+    parity = _parity(ack.code) if ack.parity is None else ack.parity
     try:
         return bytes(ACK_LAYOUT.build({"code": ack.code, "parity": parity}))
     except ConstructError:

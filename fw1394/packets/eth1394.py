@@ -36,6 +36,8 @@ from construct import (
 from fw1394.packets.asynchronous import tcode_of
 from fw1394.packets.enums import TCode
 from fw1394.packets.fast import FIELD_NAMES, decode_header
+from fw1394.packets.layouts import LAYOUTS
+from fw1394.packets.nodeid import BROADCAST_PHY
 
 # -- endpoints --------------------------------------------------------------------------
 
@@ -48,24 +50,12 @@ DEFAULT_SERVER_IP = "169.254.0.100"
 
 # -- sizes (bytes) ----------------------------------------------------------------------
 
-CONTROL_WORD_SIZE = 2
-EXTRA_SIZE = 8
-#: Request datagrams: control word + 1394 packet (16 / 20 / 20 / 24 + N bytes).
-QREAD_REQUEST_SIZE = 18
-QWRITE_REQUEST_SIZE = 22
-BREAD_REQUEST_SIZE = 22
-BWRITE_REQUEST_BASE_SIZE = 26
-#: Response datagrams: 1394 packet + extra bytes. Block responses add N data bytes.
-QUADLET_RESPONSE_SIZE = 28
-BLOCK_RESPONSE_BASE_SIZE = 32
-#: The "read dropped" notice: extra bytes and nothing else.
-EXTRA_ONLY_RESPONSE_SIZE = EXTRA_SIZE
+# The datagram sizes (control word, extra bytes, each request and response) are
+# derived from the layouts below, after the framing structs.
 #: The host caps any 1394 packet it sends or expects at this size.
 MAX_FIREWIRE_PACKET_SIZE = 2048
 #: IPv4 (20) + UDP (8) headers, which the host subtracts from the MTU.
 IPV4_UDP_HEADER_SIZE = 28
-#: Header bytes of a block packet the host subtracts from its data budget.
-BLOCK_PACKET_OVERHEAD = 24
 #: MTU the host assumes until its first datagram arrives.
 DEFAULT_MTU = 1500
 #: The FPGA's receive buffer, in quadlets.
@@ -76,7 +66,7 @@ HOST_SAFE_READ_DATA_SIZE = 1440
 #: The host waits this long (one select()) for each read response; no retry.
 HOST_RECEIVE_TIMEOUT_S = 0.02
 #: Destination node meaning "all nodes" (the 6-bit broadcast node number).
-BROADCAST_NODE = 0x3F
+BROADCAST_NODE = BROADCAST_PHY
 
 
 def max_read_data_size(mtu: int = DEFAULT_MTU) -> int:
@@ -165,6 +155,32 @@ RESPONSE_DATAGRAM = Struct(
     "packet" / Bytes(this._params.packet_size),
     "extra" / EXTRA_BYTES,
 )
+
+
+# -- sizes (bytes), from the framing structs and the 1394 packet layouts -----------------
+
+
+def _wire_size(tcode: TCode) -> int:
+    """Bytes of a 1394 packet with its CRCs and no data: header, header CRC, data CRC."""
+    layout = LAYOUTS[tcode]
+    return 4 * layout.sealed_header.count + (4 if layout.has_data else 0)
+
+
+CONTROL_WORD_SIZE: int = CONTROL_WORD.sizeof()
+EXTRA_SIZE: int = EXTRA_BYTES.sizeof()
+#: Request datagrams: control word + 1394 packet (16 / 20 / 20 / 24 + N bytes).
+QREAD_REQUEST_SIZE = CONTROL_WORD_SIZE + _wire_size(TCode.read_quadlet_request)
+QWRITE_REQUEST_SIZE = CONTROL_WORD_SIZE + _wire_size(TCode.write_quadlet_request)
+BREAD_REQUEST_SIZE = CONTROL_WORD_SIZE + _wire_size(TCode.read_block_request)
+BWRITE_REQUEST_BASE_SIZE = CONTROL_WORD_SIZE + _wire_size(TCode.write_block_request)
+#: Response datagrams: 1394 packet + extra bytes. Block responses add N data bytes.
+QUADLET_RESPONSE_SIZE = _wire_size(TCode.read_quadlet_response) + EXTRA_SIZE
+BLOCK_RESPONSE_BASE_SIZE = _wire_size(TCode.read_block_response) + EXTRA_SIZE
+#: The "read dropped" notice: extra bytes and nothing else.
+EXTRA_ONLY_RESPONSE_SIZE = EXTRA_SIZE
+#: Bytes of a block packet besides its data (header, both CRCs), which the host
+#: subtracts from its data budget.
+BLOCK_PACKET_OVERHEAD = _wire_size(TCode.read_block_response)
 
 
 # -- errors -----------------------------------------------------------------------------

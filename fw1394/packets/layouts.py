@@ -156,5 +156,6 @@ LAYOUTS: dict[TCode, Layout] = {
     )
 }
 
-#: Where the tcode sits: the same four bits of quadlet 0 in every layout.
-TCODE_BYTE, TCODE_SHIFT = 3, 4
+#: Where the tcode sits: the same four bits of quadlet 0 in every layout (byte, shift).
+_TCODE = next(f for f in Quadlets(ROUTING).bitfields if f.name == "tcode")
+TCODE_BYTE, TCODE_SHIFT = (31 - _TCODE.lsb) // 8, _TCODE.lsb % 8

@@ -12,6 +12,8 @@ from __future__ import annotations
 LOCAL_BUS = 0x3FF
 #: The physical ID every node answers to (broadcast); never a node's own ID.
 BROADCAST_PHY = 63
+#: The physical-ID bits of a node ID, as a mask (for arrays of node IDs).
+PHY_ID_MASK = BROADCAST_PHY
 #: How many nodes one bus can hold (physical IDs 0-62).
 MAX_NODES = 63
 #: The local bus's broadcast address.

@@ -17,7 +17,7 @@ from typing import Any
 import cocotb
 from cocotb.clock import Clock
 
-from fw1394.fuzz.reference import board
+from fw1394.boards.registry import make_board
 from fw1394.packets import QuadletReadRequest
 from fw1394.packets.asynchronous import encode_async
 from fw1394.rtl.phy import Phy
@@ -44,8 +44,12 @@ class Node:
         """Reset the design, give it its node ID; whether it acks a valid read."""
         config = self.config
         server = None
-        if self.portmap.served:
-            space = board(self.portmap.model, config["board_id"], frozenset(config["defects"]))
+        if self.portmap.served and self.portmap.model is not None:
+            space = make_board(
+                self.portmap.model,
+                board_id=config["board_id"],
+                defects=frozenset(config["defects"]),
+            )
             server = RegisterServer(space, byte_addressed=self.portmap.model == "memory")
         phy = self.phy = Phy(
             self.dut,

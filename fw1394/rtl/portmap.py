@@ -82,6 +82,18 @@ def resolve(spec: str) -> Path:
     return path
 
 
+def split_spec(spec: str) -> tuple[str, Path | None]:
+    """``PORTMAP[,waves=FILE]``: the port map, and where to write a waveform (VCD or FST)."""
+    portmap, _, options = spec.partition(",")
+    waves = None
+    for option in filter(None, options.split(",")):
+        key, _, value = option.partition("=")
+        if key != "waves" or not value:
+            raise PortMapError(f"rtl target option {option!r}: the only option is waves=FILE")
+        waves = Path(value).resolve()
+    return portmap, waves
+
+
 def load(spec: str | Path) -> PortMap:
     """Read and check the port map ``spec``; :class:`PortMapError` says what is wrong."""
     path = resolve(str(spec)).absolute()  # the simulator runs in another directory

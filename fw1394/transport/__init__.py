@@ -6,9 +6,12 @@
   the kernel filter that plays the link layer's address recognition.
 * :mod:`~fw1394.transport.membership`: bus resets, self-IDs, physical IDs (sans-IO).
 * :mod:`~fw1394.transport.station`: one member's plumbing (node or host).
+* :mod:`~fw1394.transport.link`: the link layer: frames to engine calls and back,
+  for the requester and the responder side of every member and tunnel.
 * :mod:`~fw1394.transport.bus_host`, :mod:`~fw1394.transport.bus_port`: the host side.
 * :mod:`~fw1394.transport.launch`, :mod:`~fw1394.transport.supervisor`,
-  :mod:`~fw1394.transport.runtime`: node processes in the background.
+  :mod:`~fw1394.transport.runtime`: node processes in the background (each one a
+  ``python -m fw1394.node`` process).
 
 ``docs/virtual-bus.md`` describes the design, the wire format and the numbers.
 """

@@ -14,21 +14,15 @@ import ctypes
 import socket
 import struct
 
-from fw1394.transport.wire import (
-    BROADCAST_PHY,
-    DESTINATION_OFFSET,
-    EVERY_MEMBER,
-    KIND_OFFSET,
-    MAGIC,
-    SENDER_OFFSET,
-    TAG_OFFSET,
-    FrameKind,
-)
+from fw1394.packets.frame import FRAME_HEADER_SPANS
+from fw1394.packets.nodeid import BROADCAST_PHY
+from fw1394.transport.wire import EVERY_MEMBER, MAGIC, FrameKind
 
 SO_ATTACH_FILTER = 26
 #: For UDP sockets the filter sees the packet from the UDP header on.
 UDP_HEADER = 8
 _LD_W, _LD_H, _LD_B = 0x20, 0x28, 0x30  # BPF_LD | BPF_ABS | size
+_LOAD_OF_SIZE = {4: _LD_W, 2: _LD_H, 1: _LD_B}
 _JEQ = 0x15  # BPF_JMP | BPF_JEQ | BPF_K
 _RET = 0x06  # BPF_RET | BPF_K
 _ACCEPT = 0xFFFF_FFFF
@@ -40,32 +34,45 @@ _NEXT, _DROP, _TAKE = "next", "drop", "accept"
 Symbolic = tuple[int, str, str, int]
 
 
+def load(field: str) -> tuple[int, int]:
+    """The BPF load instruction and absolute offset that read a frame header field.
+
+    Both come from the header's layout (:data:`fw1394.packets.frame.FRAME_HEADER`),
+    so the filter reads what the transport writes.
+    """
+    offset, size = FRAME_HEADER_SPANS[field]
+    return _LOAD_OF_SIZE[size], UDP_HEADER + offset
+
+
+def _read(field: str) -> Symbolic:
+    code, offset = load(field)
+    return (code, _NEXT, _NEXT, offset)
+
+
 def _program(
     tag: int, member_id: int | None, phy_id: int | None, drop_acks: bool
 ) -> list[Instruction]:
     steps: list[Symbolic] = [
-        (_LD_H, _NEXT, _NEXT, UDP_HEADER),
+        _read("magic"),
         (_JEQ, _NEXT, _DROP, MAGIC),
-        (_LD_W, _NEXT, _NEXT, UDP_HEADER + TAG_OFFSET),
+        _read("tag"),
         (_JEQ, _NEXT, _DROP, tag),
     ]
     if member_id is None:
         steps.append((_RET, _NEXT, _NEXT, _ACCEPT))
     else:
         steps += [
-            (_LD_W, _NEXT, _NEXT, UDP_HEADER + SENDER_OFFSET),
+            _read("sender"),
             (_JEQ, _DROP, _NEXT, member_id),
         ]
         if drop_acks:
             # A responder has no use for the acks of its responses: not waking it
             # for them halves its work per transaction.
             steps += [
-                (_LD_B, _NEXT, _NEXT, UDP_HEADER + KIND_OFFSET),
+                _read("kind"),
                 (_JEQ, _DROP, _NEXT, FrameKind.ack),
             ]
-        steps += [
-            (_LD_B, _NEXT, _NEXT, UDP_HEADER + DESTINATION_OFFSET),
-        ]
+        steps.append(_read("destination"))
         wanted = [EVERY_MEMBER, BROADCAST_PHY] + ([] if phy_id is None else [phy_id])
         steps += [(_JEQ, _TAKE, _NEXT, value) for value in wanted]
     steps += [(_RET, _NEXT, _NEXT, 0), (_RET, _NEXT, _NEXT, _ACCEPT)]

@@ -21,37 +21,25 @@ from typing import Self
 
 from fw1394.engine import Event, FailureReason, Requester, TransactionEvent, TransactionFailed
 from fw1394.packets import BlockReadResponse, RCode, name_of
-from fw1394.packets.fast import decode_packet, encode_packet
+from fw1394.packets.fast import encode_packet
+from fw1394.packets.nodeid import BROADCAST_ID, resolve
+from fw1394.packets.nodeid import LOCAL_BUS as LOCAL_BUS  # the bus hosts address, re-exported
 from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig
-from fw1394.transport.membership import BusReset, Excluded, Refused, Timing
+from fw1394.transport.link import ACK_SIZE, BusRefusedError, RequesterLink
+from fw1394.transport.membership import BusReset, Timing
 from fw1394.transport.station import Station
-from fw1394.transport.wire import (
-    ACK_PAYLOAD,
-    HEADER_SIZE,
-    MAX_UDP_PAYLOAD,
-    FrameHeader,
-    FrameKind,
-    MemberInfo,
-    ack_byte,
-    parse_ack,
-)
+from fw1394.transport.wire import HEADER_SIZE, MAX_UDP_PAYLOAD, MemberInfo
 
-LOCAL_BUS = 0x3FF
 #: A transaction the engine has not ended this long after its own timeouts is a bug;
 #: the guard turns it into an error instead of a hang.
 _GUARD_SLACK = 5.0
 _TIMER_GRANULARITY = 0.001
-# Plain ints: an Enum member lookup costs more than the rest of a frame's dispatch.
-_ASYNC_PACKET, _ACK = int(FrameKind.async_packet), int(FrameKind.ack)
-#: Wire byte of each ack code (code and parity), looked up rather than computed.
-_ACK_BYTES = tuple(ack_byte(code) for code in range(16))
-_ACK_SIZE = ACK_PAYLOAD.size
 #: Header, header CRC and data CRC of a block packet: what a block adds to its data.
 _BLOCK_OVERHEAD = len(encode_packet(BlockReadResponse(destination_id=0, tlabel=0, source_id=0)))
 #: The longest block whose read response still fits one datagram behind an ack (a
 #: concatenated response), and the longest block write request that fits one.
-MAX_BLOCK_READ = (MAX_UDP_PAYLOAD - HEADER_SIZE - _ACK_SIZE - _BLOCK_OVERHEAD) & ~3
+MAX_BLOCK_READ = (MAX_UDP_PAYLOAD - HEADER_SIZE - ACK_SIZE - _BLOCK_OVERHEAD) & ~3
 MAX_BLOCK_WRITE = (MAX_UDP_PAYLOAD - HEADER_SIZE - _BLOCK_OVERHEAD) & ~3
 
 
@@ -71,15 +59,6 @@ class TransactionError(RuntimeError):
         if failure.detail and failure.detail != text:
             text += f": {failure.detail}"
         super().__init__(text)
-
-
-def node_id_of(node: int) -> int:
-    """A physical ID 0-63 on the local bus, or a full 16-bit node ID as it is."""
-    if 0 <= node <= 63:
-        return LOCAL_BUS << 6 | node
-    if 0 <= node <= 0xFFFF:
-        return node
-    raise ValueError(f"node {node} is neither a physical ID (0-63) nor a 16-bit node ID")
 
 
 class BusHost:
@@ -108,14 +87,20 @@ class BusHost:
             poll_interval=poll_interval,
         )
         self.requester = Requester(
-            node_id=LOCAL_BUS << 6 | 63,
+            node_id=BROADCAST_ID,  # no physical ID before the first self-ID phase
             split_timeout=split_timeout,
             ack_timeout=ack_timeout,
             max_busy_retries=max_busy_retries,
+            # Loopback multicast copies no frame unless this host is told to: only
+            # then hold labels after an answer for a copy to pass (docs/engine.md).
+            duplicate_window=None if faults is not None and faults.duplicate else 0.0,
         )
+        self.link = RequesterLink(self.requester, self.station.send, self.station)
+        self.link.on_reset = self._on_reset
+        self.link.on_progress = self._collect
+        self._flush_requests = self.link.flush
         self._finished: dict[int, TransactionEvent] = {}
         self._other_events: list[Event] = []
-        self._station_due = 0.0
         self._timers_due = 0.0
         #: When the host last served the bus (its timers run only inside its calls).
         self._served_at = time.monotonic()
@@ -179,7 +164,7 @@ class BusHost:
 
     # -- transactions (non-blocking starts) ----------------------------------------------
     def start_read_quadlet(self, node: int, offset: int) -> int:
-        tid = self.requester.read_quadlet(node_id_of(node), offset, self._on_bus())
+        tid = self.requester.read_quadlet(resolve(node), offset, self._on_bus())
         self._flush_requests()
         return tid
 
@@ -189,12 +174,12 @@ class BusHost:
                 f"a block read of {length} bytes cannot cross the virtual bus: its response "
                 f"would not fit one datagram (at most {MAX_BLOCK_READ} bytes per read)"
             )
-        tid = self.requester.read_block(node_id_of(node), offset, length, self._on_bus())
+        tid = self.requester.read_block(resolve(node), offset, length, self._on_bus())
         self._flush_requests()
         return tid
 
     def start_write_quadlet(self, node: int, offset: int, value: int) -> int:
-        tid = self.requester.write_quadlet(node_id_of(node), offset, value, self._on_bus())
+        tid = self.requester.write_quadlet(resolve(node), offset, value, self._on_bus())
         self._flush_requests()
         return tid
 
@@ -204,7 +189,7 @@ class BusHost:
                 f"a block write of {len(data)} bytes cannot cross the virtual bus: it would "
                 f"not fit one datagram (at most {MAX_BLOCK_WRITE} bytes per write)"
             )
-        tid = self.requester.write_block(node_id_of(node), offset, data, self._on_bus())
+        tid = self.requester.write_block(resolve(node), offset, data, self._on_bus())
         self._flush_requests()
         return tid
 
@@ -212,7 +197,7 @@ class BusHost:
         self, node: int, offset: int, extended_tcode: int, argument: bytes, data: bytes
     ) -> int:
         now = self._on_bus()
-        tid = self.requester.lock(node_id_of(node), offset, extended_tcode, argument, data, now)
+        tid = self.requester.lock(resolve(node), offset, extended_tcode, argument, data, now)
         self._flush_requests()
         return tid
 
@@ -256,39 +241,30 @@ class BusHost:
     def _come_back(self, now: float) -> None:
         # The bus went on without this host: what it said meanwhile comes first, so
         # that a reset that happened is known before anything is sent.
-        station = self.station
+        station, link = self.station, self.link
         away = now - self._served_at
-        for header, payload in station.catch_up():
-            self._take(header, payload, now)
-        self._apply_changes()
-        timing = station.membership.timing
-        if away >= timing.lease - timing.heartbeat:
-            # The coordinator has dropped this host, or may be doing so right now:
-            # a reset that removes it could otherwise still fail the next
-            # transaction. Joining again is one reset, and it is over before any
-            # request goes out.
-            station.rejoin()
-        station.service(now)
-        self._apply_changes()
-        self._station_due = station.next_deadline()
+        try:
+            for header, payload in station.catch_up():
+                link.receive(header, payload, now)
+            link.apply_changes()
+            timing = station.membership.timing
+            if away >= timing.lease - timing.heartbeat:
+                # The coordinator has dropped this host, or may be doing so right now:
+                # a reset that removes it could otherwise still fail the next
+                # transaction. Joining again is one reset, and it is over before any
+                # request goes out.
+                station.rejoin()
+            link.service(now)
+        except BusRefusedError as error:
+            raise self._refused(error) from None
         self._served_at = now
 
     def _pump(self) -> None:
-        station = self.station
-        frame = station.receive()
-        now = time.monotonic()
+        try:
+            now = self.link.turn()
+        except BusRefusedError as error:
+            raise self._refused(error) from None
         self._served_at = now
-        if frame is None:
-            # A management frame (or nothing): a reset must reach the engine before
-            # the next packet is sent, or that packet would carry the old generation.
-            self._apply_changes()
-            self._station_due = min(self._station_due, station.next_deadline())
-        else:
-            self._take(frame[0], frame[1], now)
-        if now >= self._station_due or now >= station.wake_by:
-            station.service(now)
-            self._apply_changes()
-            self._station_due = station.next_deadline()
         if now >= self._timers_due:
             # Engine timeouts are tens of milliseconds and up: looking at them once a
             # millisecond is precise enough and keeps the heap off the per-packet path.
@@ -300,53 +276,11 @@ class BusHost:
                 self._flush_requests()
                 self._collect()
 
-    def _take(self, header: FrameHeader, payload: bytes, now: float) -> None:
-        membership = self.station.membership
-        if header.generation == membership.generation and membership.phy_id is not None:
-            kind = header.kind
-            if kind == _ACK:
-                self._on_ack(header, payload, now)
-            elif kind == _ASYNC_PACKET:
-                self._on_response(header, payload, now)
-                self._collect()
+    def _refused(self, error: BusRefusedError) -> BusError:
+        return BusError(f"bus {self.config.name!r} refused this host: {error}")
 
-    def _on_ack(self, header: FrameHeader, payload: bytes, now: float) -> None:
-        if len(payload) < _ACK_SIZE:
-            parse_ack(payload)  # raises its FrameError
-        # Unpacked in place rather than through parse_ack's AckPayload: every
-        # transaction has one.
-        byte, tlabel, _, _ = ACK_PAYLOAD.unpack_from(payload)
-        self.requester.receive_ack(LOCAL_BUS << 6 | header.sender_phy, tlabel, byte >> 4, now)
-        if len(payload) > _ACK_SIZE:
-            self._on_response(header, payload[_ACK_SIZE:], now)
-        else:
-            self._flush_requests()  # a busy ack may have queued a retry
-        self._collect()
-
-    def _on_response(self, header: FrameHeader, payload: bytes, now: float) -> None:
-        packet = decode_packet(payload)
-        code = self.requester.receive_response(packet, now)
-        if code is not None:
-            tlabel: int = getattr(packet, "tlabel", 0)
-            ack = ACK_PAYLOAD.pack(_ACK_BYTES[code], tlabel, 0, header.sequence)
-            self.station.send(_ACK, header.sender_phy, ack)
-
-    def _apply_changes(self) -> None:
-        for change in self.station.changes():
-            if isinstance(change, BusReset):
-                self.requester.bus_reset(change.generation, LOCAL_BUS << 6 | change.phy_id)
-                self.resets.append(change)
-            elif isinstance(change, Excluded):
-                self.requester.bus_reset(change.generation)
-            elif isinstance(change, Refused):
-                raise BusError(f"bus {self.config.name!r} refused this host: {change.reason}")
-        self._collect()
-
-    def _flush_requests(self) -> None:
-        station = self.station
-        for packet in self.requester.packets_to_send():
-            destination = getattr(packet, "destination_id", 0xFFFF) & 0x3F
-            station.send(_ASYNC_PACKET, destination, encode_packet(packet))
+    def _on_reset(self, change: BusReset) -> None:
+        self.resets.append(change)
 
     def _collect(self) -> None:
         for event in self.requester.events():

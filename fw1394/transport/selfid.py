@@ -10,7 +10,10 @@ lower ID); port 2 is present but unplugged.
 from __future__ import annotations
 
 from fw1394.packets import PortStatus, SelfIdPacket, Speed, encode
+from fw1394.packets.accessors import PHY_IDENTIFIER
 
+#: The identifier of self-ID packets (PHY packet bits 31-30).
+SELF_ID_IDENTIFIER = SelfIdPacket.SELECTOR["identifier"]
 #: The gap count every PHY uses after a reset until a PHY configuration packet says otherwise.
 DEFAULT_GAP_COUNT = 0x3F
 
@@ -51,4 +54,4 @@ def self_id_bytes(
 
 def is_self_id(raw: bytes) -> bool:
     """A PHY packet whose identifier is 2 (self-ID, any sequence number)."""
-    return len(raw) >= 4 and raw[0] >> 6 == 2
+    return len(raw) >= 4 and PHY_IDENTIFIER.of_bytes(raw) == SELF_ID_IDENTIFIER

@@ -1,6 +1,7 @@
 """The process that keeps a background bus: it starts the node processes and ends them.
 
-Every node is started with ``--parent-pid`` of the supervisor and asks the
+Every node is a ``python -m fw1394.node`` process (its options are the node's
+description), started with ``--parent-pid`` of the supervisor and asks the
 kernel for SIGTERM when the supervisor goes, so stopping (or killing) the
 supervisor takes every node with it. Started by a test with ``--parent-pid``
 itself, the whole tree goes when the test process goes, however it ends.
@@ -21,6 +22,8 @@ from types import FrameType
 from fw1394.transport.procs import die_with_parent
 from fw1394.transport.runtime import NodeRecord, prepare, write_nodes
 
+#: The node program: run by module name (the node package sits above the transport).
+NODE_MODULE = "fw1394.node"
 #: Board IDs are the 4-bit rotary switch of the thesis boards.
 BOARD_ID_MODULUS = 16
 
@@ -32,7 +35,8 @@ def parse_args(argv: list[str]) -> tuple[argparse.Namespace, list[str]]:
     parser.add_argument("--board", default="memory")
     parser.add_argument("--root", type=Path, default=None)
     parser.add_argument("--parent-pid", type=int, default=None)
-    # Everything else (interface, timing, faults) is passed through to each node.
+    # Everything else (interface, timing, faults, defects, Ethernet) is passed through
+    # to each node as node options.
     return parser.parse_known_args(argv)
 
 
@@ -46,9 +50,7 @@ def node_command(args: argparse.Namespace, index: int, passthrough: list[str]) -
     return [
         sys.executable,
         "-m",
-        "fw1394.cli.bus",
-        "node",
-        "run",
+        NODE_MODULE,
         "--name",
         args.name,
         "--board",

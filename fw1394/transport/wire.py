@@ -15,8 +15,9 @@ Every frame starts with a 24-byte header (big-endian)::
     20 u32  sender sequence number (per member, wraps)
 
 The payload that follows depends on the kind; ``docs/virtual-bus.md`` lists
-them byte by byte. Offsets here are fixed because the kernel socket filter
-(:mod:`fw1394.transport.bpf`) reads the tag, sender and destination in place.
+them byte by byte. The layout is described once, in :mod:`fw1394.packets.frame`;
+the struct formats, the size and the offsets the kernel socket filter
+(:mod:`fw1394.transport.bpf`) reads in place are derived from it here.
 """
 
 from __future__ import annotations
@@ -27,21 +28,39 @@ from enum import IntEnum
 from typing import NamedTuple
 
 from fw1394.packets import Speed
+from fw1394.packets.ack import ack_byte as ack_byte  # re-exported: bus members use it
+from fw1394.packets.ack import ack_code
+from fw1394.packets.frame import (
+    ACK_FRAME_FORMAT,
+    FRAME_HEADER_FORMAT,
+    FRAME_HEADER_OFFSETS,
+    FRAME_HEADER_SIZE,
+    FRAME_HEADER_VALUES,
+    FRAME_MAGIC,
+    FRAME_PREFIX,
+    FRAME_VERSION,
+)
+from fw1394.packets.nodeid import BROADCAST_PHY as BROADCAST_PHY  # re-exported
+from fw1394.packets.nodeid import MAX_NODES
 
-MAGIC = 0x4657
-VERSION = 1
-HEADER = struct.Struct(">HBBIIIBBBBI")
-HEADER_SIZE = HEADER.size
+MAGIC = FRAME_MAGIC
+VERSION = FRAME_VERSION
+HEADER = FRAME_HEADER_FORMAT
+HEADER_SIZE = FRAME_HEADER_SIZE
+#: The header's fields from ``kind`` on, in :class:`FrameHeader` order (prefix and
+#: reserved byte skipped), and the bytes every frame starts with: for receivers
+#: that check the prefix and unpack the rest in one step.
+HEADER_VALUES = FRAME_HEADER_VALUES
+HEADER_PREFIX = FRAME_PREFIX
 NO_PHY = 0xFF
-BROADCAST_PHY = 63
 EVERY_MEMBER = 0xFF
 #: Offsets the socket filter reads (relative to the UDP payload).
-KIND_OFFSET = 3
-TAG_OFFSET = 4
-SENDER_OFFSET = 8
-DESTINATION_OFFSET = 17
+KIND_OFFSET = FRAME_HEADER_OFFSETS["kind"]
+TAG_OFFSET = FRAME_HEADER_OFFSETS["tag"]
+SENDER_OFFSET = FRAME_HEADER_OFFSETS["sender"]
+DESTINATION_OFFSET = FRAME_HEADER_OFFSETS["destination"]
 #: 63 physical IDs (0-62): node 63 is the broadcast address.
-MAX_MEMBERS = 63
+MAX_MEMBERS = MAX_NODES
 #: The largest UDP payload IPv4 can carry (65,535 minus the IP and UDP headers):
 #: one frame is one datagram, so this bounds every frame.
 MAX_UDP_PAYLOAD = 65_507
@@ -130,7 +149,7 @@ def parse_header(frame: bytes) -> FrameHeader:
 # -- ack payload ------------------------------------------------------------------------
 #: ack byte (code and parity as on the wire), tlabel of the acknowledged packet,
 #: reserved u16, sequence number of the acknowledged frame.
-ACK_PAYLOAD = struct.Struct(">BBHI")
+ACK_PAYLOAD = ACK_FRAME_FORMAT
 
 
 @dataclass(frozen=True, slots=True)
@@ -143,17 +162,12 @@ class AckPayload:
 
     @property
     def code(self) -> int:
-        return self.ack_byte >> 4
+        return ack_code(self.ack_byte)
 
     def pack(self) -> bytes:
         return (
             ACK_PAYLOAD.pack(self.ack_byte, self.tlabel, 0, self.acked_sequence) + self.concatenated
         )
-
-
-def ack_byte(code: int) -> int:
-    """The wire byte of an ack: code, then its complement as the parity nibble."""
-    return (code & 0xF) << 4 | (~code & 0xF)
 
 
 def parse_ack(payload: bytes) -> AckPayload:

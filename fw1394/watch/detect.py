@@ -11,8 +11,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from fw1394.boards import make_board
-from fw1394.boards.snake2010.board import Snake2010Board
+from fw1394.boards import BOARDS
+from fw1394.boards.snake2010.regmap import REGISTER_MAP as SNAKE2010_MAP
 from fw1394.transport.config import BusNameError
 from fw1394.transport.runtime import bus_dir, read_nodes
 from fw1394.transport.wire import MemberInfo
@@ -42,8 +42,9 @@ def member_kind(bus: str, me: MemberInfo, member: MemberInfo) -> str | None:
 
 
 def kind_from_argv(argv: Sequence[str]) -> str | None:
-    """The ``--board`` of a ``node run`` command line; None if it is not one."""
-    if "node" not in argv or "run" not in argv:
+    """The ``--board`` of a node's command line (``python -m fw1394.node`` or ``fw1394
+    node run``); None if it is not one."""
+    if "fw1394.node" not in argv and ("node" not in argv or "run" not in argv):
         return None
     for position, word in enumerate(argv):
         if word == "--board" and position + 1 < len(argv):
@@ -55,8 +56,8 @@ def kind_from_argv(argv: Sequence[str]) -> str | None:
 
 def snake_channels(kind: str) -> int | None:
     """Channel count of a snake2010-family board kind; None for any other kind."""
-    try:
-        board = make_board(kind, board_id=0)
-    except (KeyError, TypeError, ValueError):
+    entry = BOARDS.get(kind)
+    registers = entry.registers if entry else None
+    if registers is None or registers.board != SNAKE2010_MAP.board:
         return None
-    return len(board.channels) if isinstance(board, Snake2010Board) else None
+    return len(registers.group("channel").copies)

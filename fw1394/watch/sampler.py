@@ -10,17 +10,15 @@ every refresh.
 
 from __future__ import annotations
 
+from fw1394.boards.snake2010.regmap import REGISTER_MAP
 from fw1394.boards.snake2010.rt_blocks import BlockSizeError
-from fw1394.boards.snake2010.spec import (
-    REG_WATCHDOG_PERIOD,
-    WATCHDOG_PERIOD_MASK,
-    Device,
-    channel_register,
-)
+from fw1394.boards.snake2010.spec import WATCHDOG_PERIOD_MASK
 from fw1394.engine.space import SpaceError
 from fw1394.host import Board, BoardError, Port, UnknownNodeError
 from fw1394.transport.bus_host import BusError, TransactionError
 from fw1394.watch.readings import BoardReading, PotSettings, reading_of
+
+_WATCHDOG_PERIOD = REGISTER_MAP.offset("WATCHDOG_PERIOD")
 
 #: What a refresh can run into with a board that is gone or misbehaving; the live
 #: view shows these and carries on, the snapshot reports them.
@@ -62,9 +60,9 @@ class WatchedBoard:
     def sample(self) -> BoardReading:
         """Latch the inputs and read the registers the real-time block leaves out."""
         self.board.latch_all_inputs()
-        period = self.port.read_quadlet(self.node, REG_WATCHDOG_PERIOD) & WATCHDOG_PERIOD_MASK
+        period = self.port.read_quadlet(self.node, _WATCHDOG_PERIOD) & WATCHDOG_PERIOD_MASK
         dac_words = [
-            self.port.read_quadlet(self.node, channel_register(axis + 1, Device.DAC))
+            self.port.read_quadlet(self.node, REGISTER_MAP.offset("DAC", axis + 1))
             for axis in range(self.channels)
         ]
         self.reading = reading_of(self.board, self.kind, dac_words, period, self.pot_settings)

@@ -10,6 +10,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from polling import wait_until
 
 from fw1394.capture.analysis.traffic_sim import Scenario, simulate
 from fw1394.capture.formats import containers
@@ -206,14 +207,14 @@ def test_wireshark_dissector_is_generated(capsys: pytest.CaptureFixture[str]) ->
         assert needle in lua
 
 
-def test_capture_of_a_live_virtual_bus(tmp_path: Path) -> None:
+@pytest.mark.process
+@pytest.mark.slow
+def test_capture_of_a_live_virtual_bus(tmp_path: Path, unique_bus_name: str) -> None:
     """The real tap on a real (loopback) virtual bus, driven by `fw1394 read`."""
-    import os
     import subprocess
     import sys
-    import time
 
-    name = f"capture-test-{os.getpid()}"
+    name = unique_bus_name
 
     def fw1394(*args: str, timeout: float = 30) -> subprocess.CompletedProcess[str]:
         command = [sys.executable, "-m", "fw1394.cli.main", *args]
@@ -229,7 +230,8 @@ def test_capture_of_a_live_virtual_bus(tmp_path: Path) -> None:
              "--duration", "4"],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         )  # fmt: skip
-        time.sleep(1.0)
+        # The capture creates its output file once its tap has joined the bus.
+        wait_until(lambda: path.exists() or capture.poll() is not None, timeout=30)
         for node in ("0", "1"):
             fw1394("read", "--name", name, node, "0xfffff0000400", timeout=10)
         out, err = capture.communicate(timeout=30)

@@ -51,6 +51,7 @@ def mutate(data: bytes, rng: random.Random) -> bytes:
     return bytes(blob)
 
 
+@pytest.mark.slow
 def test_damaged_files_of_every_format(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     rng = random.Random(1394)
     files = originals(tmp_path)
@@ -66,6 +67,7 @@ def test_damaged_files_of_every_format(tmp_path: Path, capsys: pytest.CaptureFix
         assert "Traceback" not in err
 
 
+@pytest.mark.slow
 def test_random_bytes(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     rng = random.Random(7)
     for round_number in range(40):

@@ -100,7 +100,7 @@ def test_own_bus_number_is_accepted() -> None:
 
 def test_bus_reset_gives_a_new_physical_id() -> None:
     node = responder(IEEE1394_NODE)
-    node.bus_reset(0xFFC4, 3)
+    node.bus_reset(node_id=0xFFC4, generation=3)
     assert (node.node_id, node.generation) == (0xFFC4, 3)
     old = encode(QuadletReadRequest(destination_id=NODE, source_id=HOST))
     new = encode(QuadletReadRequest(destination_id=0xFFC4, source_id=HOST))

@@ -31,7 +31,7 @@ PLANTED = [
     ("qla1", "rt-write-any-board", "jhu", 2000, {"state", "reply"}),
     ("qla1", "status-write-stored", "jhu", 700, {"state", "reply"}),
     ("qla1", "unmapped-address-error", "jhu", 100, {"state", "reply"}),
-    ("qla1", "watchdog-disabled", "jhu", 4000, {"state", "reply"}),
+    ("qla1", "watchdog-disabled", "jhu", 7500, {"state", "reply"}),
     ("snake2010", "stale-read", "thesis", 400, {"state", "reply"}),
     ("snake2010", "write-ignores-mask", "thesis", 700, {"state", "reply"}),
 ]

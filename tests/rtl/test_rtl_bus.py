@@ -16,6 +16,8 @@ from fw1394.rtl.simulation import missing_tools
 
 pytestmark = [
     pytest.mark.rtl,
+    pytest.mark.iverilog,
+    pytest.mark.process,
     pytest.mark.skipif(missing_tools() is not None, reason=str(missing_tools())),
 ]
 FAST_ARGS = ("--heartbeat", "0.1", "--lease", "2.0")

@@ -10,13 +10,15 @@ from __future__ import annotations
 import pytest
 
 from fw1394.fuzz.campaign import run
+from fw1394.fuzz.rtl_differential import compare
 from fw1394.fuzz.settings import Settings, SettingsError
 from fw1394.fuzz.targets import check, target_kind
-from fw1394.rtl.differential import compare
 from fw1394.rtl.simulation import missing_tools
 
 pytestmark = [
     pytest.mark.rtl,
+    pytest.mark.iverilog,
+    pytest.mark.process,
     pytest.mark.skipif(missing_tools() is not None, reason=str(missing_tools())),
 ]
 

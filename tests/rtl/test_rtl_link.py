@@ -15,9 +15,11 @@ import pytest
 from fw1394.crc import header_crc
 from fw1394.engine import THESIS_FPGA, Responder
 from fw1394.fuzz.reference import board
+from fw1394.fuzz.rtl_target import NeverAcks, RtlTarget
 from fw1394.packets import (
     AckCode,
     BlockReadRequest,
+    BlockReadResponse,
     BlockWriteRequest,
     LockRequest,
     QuadletReadRequest,
@@ -27,11 +29,12 @@ from fw1394.packets import (
 from fw1394.packets.asynchronous import decode_async, encode_async
 from fw1394.rtl.portmap import load
 from fw1394.rtl.simulation import Simulation, missing_tools
-from fw1394.rtl.target import NeverAcks, RtlTarget
 
 HERE = Path(__file__).parent
 pytestmark = [
     pytest.mark.rtl,
+    pytest.mark.iverilog,
+    pytest.mark.process,
     pytest.mark.skipif(missing_tools() is not None, reason=str(missing_tools())),
 ]
 ME, HOST, OTHER = 0xFFC2, 0xFFC0, 0xFFC5
@@ -149,14 +152,17 @@ def test_every_pin_style_reads_and_writes(spec: str, board_id: int, tmp_path: Pa
         replies = answer["replies"]
         (w_ack, _, _), (r_ack, r_raw, r_cat), (b_ack, _, _), (br_ack, br_raw, _) = replies[:4]
         assert (w_ack, r_ack, b_ack, br_ack) == (1, 2, 1, 2) and r_cat
-        assert decode_async(bytes.fromhex(r_raw)).quadlet_data == 0xCAFE0001
-        assert decode_async(bytes.fromhex(br_raw)).data == bytes(range(8))
+        quadlet = decode_async(bytes.fromhex(r_raw))
+        assert isinstance(quadlet, QuadletReadResponse) and quadlet.quadlet_data == 0xCAFE0001
+        block_answer = decode_async(bytes.fromhex(br_raw))
+        assert isinstance(block_answer, BlockReadResponse) and block_answer.data == bytes(range(8))
         # an odd length: the byte past it goes out as zero, under a data CRC over zeros
         odd = bytes.fromhex(replies[4][1])
         assert odd[20:28] == bytes(range(7)) + b"\0"
         assert decode_async(odd).problems == ()
-        status_word = decode_async(bytes.fromhex(replies[5][1])).quadlet_data
-        assert status_word == board_id << 24
+        status_answer = decode_async(bytes.fromhex(replies[5][1]))
+        assert isinstance(status_answer, QuadletReadResponse)
+        assert status_answer.quadlet_data == board_id << 24
     finally:
         sim.close()
 
@@ -169,7 +175,9 @@ def test_every_pin_style_reads_and_writes(spec: str, board_id: int, tmp_path: Pa
     ],
     ids=["reset-polarity", "ctl-bit-order"],
 )
-def test_a_map_under_which_the_design_never_acks_is_refused(tmp_path: Path, change) -> None:
+def test_a_map_under_which_the_design_never_acks_is_refused(
+    tmp_path: Path, change: tuple[str, str]
+) -> None:
     text = load("thesis-own").path.read_text().replace(*change)
     text = text.replace("@hdl/", str(load("thesis-own").sources[0].parent) + "/")
     path = tmp_path / "wrong.toml"
@@ -250,7 +258,9 @@ def test_a_register_bus_without_read_strobes_is_served_by_address() -> None:
     ("delay", "ack", "violation"),
     [(20, AckCode.ack_pending, "ack-gap"), (40, None, "unsolicited")],
 )
-def test_late_acks_break_the_ack_gap(tmp_path: Path, delay: int, ack, violation: str) -> None:
+def test_late_acks_break_the_ack_gap(
+    tmp_path: Path, delay: int, ack: int | None, violation: str
+) -> None:
     # LREQ delayed 20 cycles: the ack comes 33 cycles after the packet (gap 32);
     # delayed 40: LREQ is quiet for the whole gap (silence), and the ack comes anyway.
     text = (HERE / "slow_lreq.toml").read_text().replace("DELAY = 20", f"DELAY = {delay}")

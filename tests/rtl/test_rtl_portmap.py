@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from fw1394.rtl.defects import RTL_DEFECTS, define
-from fw1394.rtl.portmap import HDL_DIR, PortMapError, harness_verilog, load
+from fw1394.rtl.portmap import HDL_DIR, PortMap, PortMapError, harness_verilog, load
 
 HERE = Path(__file__).parent
 MAPS = [
@@ -86,8 +86,10 @@ def test_bit_orders_reverse_the_vectors() -> None:
 
 @needs_iverilog
 @pytest.mark.rtl
+@pytest.mark.iverilog
+@pytest.mark.process
 @pytest.mark.parametrize("portmap", MAPS, ids=lambda m: m.path.stem)
-def test_harness_compiles_lint_clean(portmap, tmp_path: Path) -> None:
+def test_harness_compiles_lint_clean(portmap: PortMap, tmp_path: Path) -> None:
     harness = tmp_path / "harness.v"
     harness.write_text(harness_verilog(portmap))
     result = subprocess.run(
@@ -112,6 +114,8 @@ def test_harness_compiles_lint_clean(portmap, tmp_path: Path) -> None:
 
 @needs_iverilog
 @pytest.mark.rtl
+@pytest.mark.iverilog
+@pytest.mark.process
 @pytest.mark.parametrize("defect", [None, *RTL_DEFECTS])
 def test_link_is_lint_clean_with_every_defect(defect: str | None, tmp_path: Path) -> None:
     sources = sorted(str(p) for p in HDL_DIR.glob("*.v"))

@@ -24,6 +24,7 @@ from fw1394.boards.qla1.channels import MotorChannel
 from fw1394.boards.qla1.config_rom import CSR_BYTE_MASK, CsrSpace, build_config_rom, in_csr_window
 from fw1394.boards.qla1.hub import HubState
 from fw1394.boards.qla1.phy_window import PhyInterface
+from fw1394.boards.qla1.regmap import FIREWIRE_DECODING
 from fw1394.boards.qla1.regs import (
     BLOCK_INDEX_MASK,
     CHANNELS,
@@ -33,7 +34,6 @@ from fw1394.boards.qla1.regs import (
     IP_UNASSIGNED,
     MAX_BOARD_ID,
     QLA1_HARDWARE_VERSION,
-    REGISTER_INDEX_MASK,
     SPACE_SHIFT,
     BoardRegister,
     ChannelRegister,
@@ -43,6 +43,7 @@ from fw1394.boards.qla1.regs import (
 from fw1394.boards.qla1.status import BoardControl
 from fw1394.boards.qla1.watchdog import Watchdog
 from fw1394.engine.space import AddressError, DataError
+from fw1394.packets.nodeid import phy_of
 
 #: STATUS writes are stored and read back verbatim (breaks the board id).
 DEFECT_STATUS_WRITE_STORED = "status-write-stored"
@@ -65,6 +66,8 @@ BOARD_DEFECTS = frozenset(
 )
 
 OFFSET_LIMIT = 1 << 48
+#: The register-bus address of an offset that is not in the CSR window.
+_register_address = FIREWIRE_DECODING.address
 #: Two amplifier temperatures (bits 15..8 and 7..0) in the board's raw units.
 TEMPERATURE_READING = 0x3C3C
 
@@ -95,7 +98,7 @@ class Qla1Board:
         self.defects = frozenset(defects)
         self.git_description = git_description & 0xFFFFFFFF
         self._initial_ip = IP_UNASSIGNED if ip_address is None else ip_to_register(ip_address)
-        self._node_id = physical_id & 0x3F
+        self._node_id = phy_of(physical_id)
         self._now = 0
         self._power_up()
         # Readers look attributes up on each call, so they survive a reboot's fresh state.
@@ -132,7 +135,7 @@ class Qla1Board:
 
     def set_physical_id(self, physical_id: int) -> None:
         """The node number the bus gave this node (PHY register 0, CSR NODE_IDS)."""
-        self._node_id = physical_id & 0x3F
+        self._node_id = phy_of(physical_id)
         self.phy.node_id = self._node_id
         self.csr.node_id = self._node_id
 
@@ -159,7 +162,7 @@ class Qla1Board:
         _check_offset(offset)
         if in_csr_window(offset):
             return self.csr.read(offset & CSR_BYTE_MASK)
-        return self._read_index(offset & REGISTER_INDEX_MASK)
+        return self._read_index(_register_address(offset))
 
     def write_quadlet(self, offset: int, value: int) -> None:
         _check_offset(offset)
@@ -169,7 +172,7 @@ class Qla1Board:
         if in_csr_window(offset):
             self.csr.write(offset & CSR_BYTE_MASK, value)
             return
-        self._write_index(offset & REGISTER_INDEX_MASK, value)
+        self._write_index(_register_address(offset), value)
 
     def read_block(self, offset: int, length: int) -> bytes:
         _check_offset(offset)
@@ -179,8 +182,8 @@ class Qla1Board:
         if in_csr_window(offset):
             start = offset & CSR_BYTE_MASK
             words = [self.csr.read((start + 4 * n) & CSR_BYTE_MASK) for n in range(count)]
-        elif _space(offset & REGISTER_INDEX_MASK) == Space.MAIN:
-            words = self._rt_block_read(offset & REGISTER_INDEX_MASK, count)
+        elif _space(_register_address(offset)) == Space.MAIN:
+            words = self._rt_block_read(_register_address(offset), count)
         else:
             words = [self._read_index(index) for index in self._block_indices(offset, count)]
         return _quadlets_to_bytes(words)[:length]
@@ -197,7 +200,7 @@ class Qla1Board:
             for n, value in enumerate(words):
                 self.csr.write((start + 4 * n) & CSR_BYTE_MASK, value)
             return
-        index = offset & REGISTER_INDEX_MASK
+        index = _register_address(offset)
         space = _space(index)
         if space == Space.MAIN:
             self._rt_block_write(index, words)
@@ -214,8 +217,8 @@ class Qla1Board:
     @staticmethod
     def _block_indices(offset: int, count: int) -> list[int]:
         # Block transfers step bits 11..0 and keep the space nibble (they wrap within it).
-        index = offset & REGISTER_INDEX_MASK
-        space_bits = index & ~BLOCK_INDEX_MASK & REGISTER_INDEX_MASK
+        index = _register_address(offset)
+        space_bits = index & ~BLOCK_INDEX_MASK
         return [space_bits | ((index + n) & BLOCK_INDEX_MASK) for n in range(count)]
 
     def _unmapped(self, index: int) -> int:

@@ -20,7 +20,6 @@ firmware 9 only it is cabled to the host.
 
 from __future__ import annotations
 
-import argparse
 import select
 import signal
 import socket
@@ -29,7 +28,7 @@ import time
 from dataclasses import dataclass
 from types import FrameType
 
-from fw1394.boards.qla1.board import Qla1Board
+from fw1394.boards.qla1.board import BOARD_DEFECTS, Qla1Board
 from fw1394.boards.qla1.eth_server import (
     MAX_DATAGRAM,
     check_multicast_allowed,
@@ -39,17 +38,17 @@ from fw1394.boards.qla1.eth_server import (
 )
 from fw1394.boards.qla1.ethernet import Action, EthernetPort, Forward, HubBroadcast, Reply, datagram
 from fw1394.boards.qla1.firewire import (
-    LOCAL_BUS_IDS,
     ClockedBoard,
     broadcast_sequence,
     is_hub_query,
 )
-from fw1394.engine import JHU_FIRMWARE
+from fw1394.engine import JHU_FIRMWARE, Responder
 from fw1394.engine.defects import DefectiveResponder
 from fw1394.engine.responder import decode_received
 from fw1394.packets import BlockWriteRequest, Request, Response
 from fw1394.packets.eth1394 import MULTICAST_GROUP
 from fw1394.packets.fast import encode_packet
+from fw1394.packets.nodeid import BROADCAST_ID, BROADCAST_PHY
 from fw1394.transport.config import BusConfig
 from fw1394.transport.eth1394_addresses import (
     MULTICAST_FIRMWARE,
@@ -60,16 +59,10 @@ from fw1394.transport.eth1394_addresses import (
     require_loopback,
 )
 from fw1394.transport.faults import FaultConfig
-from fw1394.transport.membership import BusReset, Refused, Timing
+from fw1394.transport.link import ACK, ASYNC_PACKET, ResponderLink
+from fw1394.transport.membership import BusReset, Timing
 from fw1394.transport.station import Station
-from fw1394.transport.wire import (
-    BROADCAST_PHY,
-    AckPayload,
-    FrameHeader,
-    FrameKind,
-    ack_byte,
-    parse_ack,
-)
+from fw1394.transport.wire import FrameHeader, FrameKind, parse_ack
 
 POLL = 0.005
 
@@ -93,6 +86,43 @@ class StationLink:
     def resetting(self) -> bool:
         # Between leaving one generation and taking part in the next.
         return self._station.phy_id is None
+
+
+class BoardLink(ResponderLink):
+    """The board's link: requests go to its responder, and what the Ethernet port
+    waits for (responses to forwarded requests, other boards' blocks) to the port.
+
+    The port's answers collect in :attr:`actions` for the node to carry out.
+    """
+
+    def __init__(self, responder: Responder, station: Station, port: EthernetPort) -> None:
+        super().__init__(responder, station.send, station, epoch=time.monotonic())
+        self.port = port
+        self.actions: list[Action] = []
+
+    def take(self, header: FrameHeader, payload: bytes, now: float) -> None:
+        board_now = now - self.epoch
+        kind = header.kind
+        if kind == ACK:
+            concatenated = parse_ack(payload).concatenated
+            if concatenated:
+                self.actions += self.port.firewire_response(concatenated, board_now)
+            return
+        if kind != ASYNC_PACKET:
+            return
+        packet, damaged = decode_received(payload)
+        if isinstance(packet, Response):
+            self.actions += self.port.firewire_response(payload, board_now)
+        elif (
+            isinstance(packet, BlockWriteRequest)
+            and packet.destination_node == BROADCAST_PHY
+            and broadcast_sequence(packet) is not None
+        ):
+            self.actions += self.port.hub_block(packet, board_now)  # another board's block
+        elif isinstance(packet, Request):
+            self.serve_packet(packet, damaged, header.sender_phy, header.sequence, now)
+            if is_hub_query(packet) and packet.destination_node in (0, BROADCAST_PHY):
+                self.actions += self.port.query_taken(board_now)
 
 
 @dataclass
@@ -122,12 +152,14 @@ class QlaBusNode:
             drop_acks=False,  # forwarded requests are answered in ack frames
         )
         self.responder = DefectiveResponder(
-            LOCAL_BUS_IDS | 63, ClockedBoard(board), JHU_FIRMWARE, defects=options.defects
+            BROADCAST_ID, ClockedBoard(board), JHU_FIRMWARE, defects=options.defects
         )
         self.port = EthernetPort(
             board, self.responder, StationLink(self.station), ethernet_hub=options.ethernet_hub
         )
-        self.epoch = time.monotonic()
+        self.link = BoardLink(self.responder, self.station, self.port)
+        self.link.on_reset = self._on_reset
+        self.epoch = self.link.epoch
         self._running = True
         self._unicast: socket.socket | None = None
         self._udp: list[socket.socket] = []
@@ -167,41 +199,33 @@ class QlaBusNode:
 
     # -- the loop -------------------------------------------------------------------------
     def run(self) -> None:
-        station = self.station
+        station, link = self.station, self.link
         medium = station.medium.sock
         try:
-            due = 0.0
             while self._running:
-                wait = min(POLL, max(0.0, due - time.monotonic()))
+                wait = min(POLL, max(0.0, link.due - time.monotonic()))
                 if (deadline := self.port.next_deadline()) is not None:
                     wait = min(wait, max(0.0, deadline - self.now()))
                 readable, _, _ = select.select([medium, *self._udp], [], [], wait)
-                actions: list[Action] = []
                 for sock in readable:
                     if sock is medium:
-                        actions += self._bus_frame()
+                        if (frame := station.receive()) is not None:
+                            link.receive(frame[0], frame[1], time.monotonic())
                     else:
-                        actions += self._datagrams(sock)
-                actions += self.port.poll(self.now())
-                self._carry_out(actions)
-                self._apply_changes()
-                if time.monotonic() >= due:
-                    station.service()
-                    self._apply_changes()
-                    due = station.next_deadline()
+                        link.actions += self._datagrams(sock)
+                actions, link.actions = link.actions, []
+                self._carry_out(actions + self.port.poll(self.now()))
+                link.apply_changes()
+                if time.monotonic() >= link.due:
+                    link.service()
         finally:
             try:
                 station.close()
             finally:
                 self.close()
 
-    def _apply_changes(self) -> None:
-        for change in self.station.changes():
-            if isinstance(change, BusReset):
-                self.responder.bus_reset(LOCAL_BUS_IDS | change.phy_id, change.generation)
-                self.board.set_physical_id(change.phy_id)
-            elif isinstance(change, Refused):
-                raise RuntimeError(f"the bus refused this node: {change.reason}")
+    def _on_reset(self, change: BusReset) -> None:
+        self.board.set_physical_id(change.phy_id)
 
     def _datagrams(self, sock: socket.socket) -> list[Action]:
         actions: list[Action] = []
@@ -211,49 +235,6 @@ class QlaBusNode:
             except (BlockingIOError, InterruptedError):
                 return actions
             actions += self.port.receive(payload, sender, self.now())
-
-    def _bus_frame(self) -> list[Action]:
-        station = self.station
-        frame = station.receive()
-        if frame is None or station.phy_id is None:
-            return []
-        header, payload = frame
-        if header.generation != station.generation:
-            return []  # a packet of another generation never reaches a link after a reset
-        if header.kind == FrameKind.ack:
-            concatenated = parse_ack(payload).concatenated
-            return self.port.firewire_response(concatenated, self.now()) if concatenated else []
-        if header.kind == FrameKind.async_packet:
-            return self._bus_packet(header, payload)
-        return []
-
-    def _bus_packet(self, header: FrameHeader, payload: bytes) -> list[Action]:
-        now = self.now()
-        packet, damaged = decode_received(payload)
-        if isinstance(packet, Response):
-            return self.port.firewire_response(payload, now)
-        if (
-            isinstance(packet, BlockWriteRequest)
-            and packet.destination_node == BROADCAST_PHY
-            and broadcast_sequence(packet) is not None
-        ):
-            return self.port.hub_block(packet, now)  # another board's block, for the hub
-        if not isinstance(packet, Request):
-            return []
-        reply = self.responder.receive_packet(packet, now, damaged=damaged)
-        if reply.ack is not None:
-            response = b"" if reply.response is None else encode_packet(reply.response)
-            tlabel = packet.tlabel
-            if reply.concatenated or not response:
-                ack = AckPayload(ack_byte(reply.ack), tlabel, header.sequence, response)
-                self.station.send(FrameKind.ack, header.sender_phy, ack.pack())
-            else:
-                ack = AckPayload(ack_byte(reply.ack), tlabel, header.sequence)
-                self.station.send(FrameKind.ack, header.sender_phy, ack.pack())
-                self.station.send(FrameKind.async_packet, header.sender_phy, response)
-        if is_hub_query(packet) and packet.destination_node in (0, BROADCAST_PHY):
-            return self.port.query_taken(now)
-        return []
 
     def _carry_out(self, actions: list[Action]) -> None:
         processed = self.now()
@@ -272,83 +253,60 @@ class QlaBusNode:
                 )
 
 
-# -- command-line glue for ``fw1394 node run`` / ``fw1394 bus up`` --------------------------
+# -- the node program (fw1394.boards.registry: qla1's node_program) ----------------------------
+class Qla1NodeProgram:
+    """How ``python -m fw1394.node`` runs a qla1 node: with its Ethernet side."""
 
+    def check(self, *, eth1394: str | None, firmware: int) -> None:
+        if eth1394 is not None:
+            require_loopback(parse_endpoint(eth1394).host)
+            check_multicast_allowed(firmware)
 
-def add_eth1394_options(parser: argparse.ArgumentParser) -> None:
-    """``--eth1394 [ADDRESS[:PORT]]`` and ``--firmware`` (qla1 boards)."""
-    group = parser.add_argument_group("JHU Eth1394 (qla1 boards)")
-    group.add_argument(
-        "--eth1394",
-        nargs="?",
-        const="127.0.0.1",
-        default=None,
-        metavar="ADDRESS[:PORT]",
-        help="cable the board to a host at this loopback server IP (default 127.0.0.1:1394)",
-    )
-    group.add_argument(
-        "--firmware",
-        type=int,
-        default=8,
-        help="qla1 firmware revision (default 8: bridge mode; >= 9 needs a network namespace)",
-    )
-
-
-def eth1394_node_arguments(args: argparse.Namespace) -> tuple[str, ...]:
-    """The options above again, for ``bus up`` to hand to its node processes.
-
-    Raises ValueError (with the reason) for a setting no node could start with.
-    """
-    if args.board != "qla1":
-        if args.eth1394 is not None:
-            raise ValueError(f"--eth1394 needs --board qla1, not {args.board}")
-        return ()
-    out: tuple[str, ...] = ("--firmware", str(args.firmware))
-    if args.eth1394 is not None:
-        require_loopback(parse_endpoint(args.eth1394).host)
-        check_multicast_allowed(args.firmware)
-        out += ("--eth1394", args.eth1394)
-    return out
-
-
-def run_from_arguments(
-    args: argparse.Namespace,
-    config: BusConfig,
-    timing: Timing | None,
-    faults: FaultConfig | None,
-) -> None:
-    """Run the qla1 board of ``fw1394 node run`` until SIGINT or SIGTERM."""
-    from fw1394.boards.registry import board_defects, check_defects
-
-    defects = check_defects("qla1", getattr(args, "defect", None) or [])
-    board = Qla1Board(
-        board_id=args.board_id, firmware=args.firmware, defects=board_defects("qla1", defects)
-    )
-    # In a bus of several processes the first one is the board nearest the host;
-    # before firmware 9 it is also the only one with an Ethernet cable.
-    hub = args.rank in (None, 0)
-    cabled = args.eth1394 is not None and (hub or args.firmware >= MULTICAST_FIRMWARE)
-    options = BusNodeOptions(
-        config=config,
-        rank=args.rank,
-        timing=timing,
-        faults=faults,
-        eth1394=parse_endpoint(args.eth1394) if cabled else None,
-        ethernet_hub=hub,
-        defects=defects,
-    )
-    node = QlaBusNode(board, options)
-    if node.addresses and not args.quiet:
-        print(
-            f"fw1394 node: board {board.board_id} on {', '.join(node.addresses)}", file=sys.stderr
+    def run(
+        self,
+        *,
+        config: BusConfig,
+        board_id: int,
+        rank: int | None,
+        timing: Timing | None,
+        faults: FaultConfig | None,
+        defects: frozenset[str],
+        eth1394: str | None,
+        firmware: int,
+        quiet: bool,
+    ) -> None:
+        """Run the board until SIGINT or SIGTERM; ValueError or OSError if it cannot start."""
+        self.check(eth1394=eth1394, firmware=firmware)
+        board = Qla1Board(board_id=board_id, firmware=firmware, defects=defects & BOARD_DEFECTS)
+        # In a bus of several processes the first one is the board nearest the host;
+        # before firmware 9 it is also the only one with an Ethernet cable.
+        hub = rank in (None, 0)
+        cabled = eth1394 is not None and (hub or firmware >= MULTICAST_FIRMWARE)
+        options = BusNodeOptions(
+            config=config,
+            rank=rank,
+            timing=timing,
+            faults=faults,
+            eth1394=parse_endpoint(eth1394) if cabled and eth1394 else None,
+            ethernet_hub=hub,
+            defects=defects,
         )
+        node = QlaBusNode(board, options)
+        if node.addresses and not quiet:
+            print(
+                f"fw1394 node: board {board.board_id} on {', '.join(node.addresses)}",
+                file=sys.stderr,
+            )
 
-    def stop(signum: int, frame: FrameType | None) -> None:
-        node.stop()
+        def stop(signum: int, frame: FrameType | None) -> None:
+            node.stop()
 
-    previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        node.run()
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
+        previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
+        try:
+            node.run()
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+
+
+QLA1_NODE = Qla1NodeProgram()

@@ -15,6 +15,8 @@ from dataclasses import dataclass
 
 import crcmod
 
+from fw1394.packets.nodeid import LOCAL_BUS
+
 #: offset bits 47..12 of the CSR / configuration ROM window.
 CSR_WINDOW_PREFIX = 0xFFFFF0000
 CSR_WINDOW_SHIFT = 12
@@ -94,7 +96,7 @@ class CsrSpace:
 
     rom: list[int]
     node_id: int = 0
-    bus_id: int = 0x3FF
+    bus_id: int = LOCAL_BUS
     state: int = 0
     split_timeout_seconds: int = 0
     split_timeout_fraction: int = POWER_UP_SPLIT_TIMEOUT_LO

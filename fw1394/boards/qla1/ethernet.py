@@ -28,15 +28,14 @@ from dataclasses import dataclass, field, replace
 
 from fw1394.boards.qla1.board import Qla1Board
 from fw1394.boards.qla1.firewire import (
-    BROADCAST_NODE,
     FireWireState,
     broadcast_sequence,
     hub_broadcast,
     is_hub_query,
 )
+from fw1394.boards.qla1.regmap import ETHERNET_DECODING
 from fw1394.boards.qla1.regs import (
     HUB_MEMORY_BASE,
-    REGISTER_INDEX_MASK,
     BoardRegister,
 )
 from fw1394.engine import Responder
@@ -62,9 +61,12 @@ from fw1394.packets.eth1394 import (
     parse_request,
 )
 from fw1394.packets.fast import decode_packet, encode_packet
+from fw1394.packets.nodeid import BROADCAST_PHY, LOCAL_BUS, bus_of
+from fw1394.packets.nodeid import node_id as node_id_of
 
 HostAddress = tuple[str, int]
-LOCAL_BUS = 0x3FF
+#: What an offset reaches over this path (no CSR window: only bits 15..0 arrive).
+_ethernet_address = ETHERNET_DECODING.address
 #: Quadlet 2 of the unasked broadcast-read response: the hub memory offset.
 BROADCAST_RESPONSE_Q2 = HUB_MEMORY_BASE
 #: ETH_STATUS write bit that clears the sticky error flags.
@@ -204,7 +206,7 @@ class EthernetPort:
         control = framed.control
         self.last_host, self.host_id = sender, packet.source_id
         destination = packet.destination_node
-        broadcast = destination == BROADCAST_NODE
+        broadcast = destination == BROADCAST_PHY
         is_read = isinstance(packet, _READS)
         firewire = self.firewire
         if not control.no_forward and (
@@ -236,11 +238,10 @@ class EthernetPort:
         sender: HostAddress,
         now: float,
     ) -> list[Action]:
-        # The Ethernet path decodes offset bits 15..0 only (no CSR window here).
-        target = replace(packet, offset=packet.offset & REGISTER_INDEX_MASK)
-        if not (isinstance(packet, _WRITES) and packet.destination_node == BROADCAST_NODE):
-            own = self.responder.node_id & BROADCAST_NODE
-            target = replace(target, destination_id=packet.destination_id & ~0x3F | own)
+        target = replace(packet, offset=_ethernet_address(packet.offset))
+        if not (isinstance(packet, _WRITES) and packet.destination_node == BROADCAST_PHY):
+            own = self.responder.node_id & BROADCAST_PHY
+            target = replace(target, destination_id=node_id_of(own, bus_of(packet.destination_id)))
         if isinstance(target, BlockReadRequest) and self._hub_round_waiting(target):
             deadline = now + self.hub_read_wait
             self._pending.append(
@@ -264,14 +265,14 @@ class EthernetPort:
         reply = self.responder.receive_packet(target, now, damaged=False)
         if reply.response is None or not isinstance(reply.response, Response):
             return []
-        source = destination_id & ~0x3F | reply_node
+        source = node_id_of(reply_node, bus_of(destination_id))
         response = replace(reply.response, source_id=source)
         return [Reply(sender, zero_crc_bytes(response), self._extra(no_forward), now)]
 
     def _after_write(
         self, packet: QuadletWriteRequest, no_forward: bool, sender: HostAddress, now: float
     ) -> list[Action]:
-        index = packet.offset & REGISTER_INDEX_MASK
+        index = _ethernet_address(packet.offset)
         if index == BoardRegister.ETH_STATUS and packet.quadlet_data & CLEAR_ERRORS:
             self.summary_error = False
         if not is_hub_query(packet):
@@ -324,7 +325,7 @@ class EthernetPort:
     def _hub_round_waiting(self, request: BlockReadRequest) -> bool:
         hub = self.board.hub
         return (
-            request.offset & REGISTER_INDEX_MASK == HUB_MEMORY_BASE
+            _ethernet_address(request.offset) == HUB_MEMORY_BASE
             and bool(hub.board_mask)
             and not hub.complete
         )
@@ -359,7 +360,7 @@ class EthernetPort:
         response = BlockReadResponse(
             destination_id=target.requester,
             tlabel=target.tlabel,
-            source_id=LOCAL_BUS << 6 | self.board.board_id,
+            source_id=node_id_of(self.board.board_id),
             reserved=BROADCAST_RESPONSE_Q2,
             data=data,
         )

@@ -17,16 +17,18 @@ from __future__ import annotations
 from typing import Protocol
 
 from fw1394.boards.qla1.board import Qla1Board
-from fw1394.boards.qla1.regs import HUB_MEMORY_BASE, HUB_QUERY, REGISTER_INDEX_MASK
+from fw1394.boards.qla1.regmap import FIREWIRE_DECODING
+from fw1394.boards.qla1.regs import HUB_MEMORY_BASE, HUB_QUERY
 from fw1394.packets import AsyncPacket, BlockWriteRequest, QuadletWriteRequest
+from fw1394.packets.nodeid import BROADCAST_ID, BROADCAST_PHY, LOCAL_BASE, phy_of
+from fw1394.packets.nodeid import node_id as node_id_of
 
-BROADCAST_ID = 0xFFFF
-LOCAL_BUS_IDS = 0xFFC0
+#: Node ID of physical ID 0 on the local bus; a node ID is this ORed with the physical ID.
+LOCAL_BUS_IDS = LOCAL_BASE
 #: Offset of the hub-data broadcast: hub memory, seen through the upper address bits.
 HUB_BROADCAST_OFFSET = 0xFFFF_FF00_0000 | HUB_MEMORY_BASE
 #: The priority field the firmware sets on its own hub-data broadcasts.
 HUB_BROADCAST_PRIORITY = 0xA
-BROADCAST_NODE = 0x3F
 
 
 class FireWireState(Protocol):
@@ -87,7 +89,8 @@ class ClockedBoard:
 def is_hub_query(packet: AsyncPacket) -> bool:
     """A quadlet write to 0x1800: the broadcast query (only offset bits 15..0 count)."""
     return (
-        isinstance(packet, QuadletWriteRequest) and packet.offset & REGISTER_INDEX_MASK == HUB_QUERY
+        isinstance(packet, QuadletWriteRequest)
+        and FIREWIRE_DECODING.address(packet.offset) == HUB_QUERY
     )
 
 
@@ -95,7 +98,7 @@ def query_reaches_every_node(packet: AsyncPacket) -> bool:
     """The firmware takes a query sent to node 0 as if it were broadcast."""
     return is_hub_query(packet) and getattr(packet, "destination_node", None) in (
         0,
-        BROADCAST_NODE,
+        BROADCAST_PHY,
     )
 
 
@@ -113,7 +116,7 @@ def hub_broadcast(board: Qla1Board, node_id: int) -> BlockWriteRequest | None:
     words = (first, *own.quadlets)
     return BlockWriteRequest(
         destination_id=BROADCAST_ID,
-        source_id=LOCAL_BUS_IDS | node_id & BROADCAST_NODE,
+        source_id=node_id_of(phy_of(node_id)),
         tlabel=0,
         priority=HUB_BROADCAST_PRIORITY,
         offset=HUB_BROADCAST_OFFSET,
@@ -123,6 +126,6 @@ def hub_broadcast(board: Qla1Board, node_id: int) -> BlockWriteRequest | None:
 
 def broadcast_sequence(packet: BlockWriteRequest) -> int | None:
     """The query sequence a hub-data broadcast answers, or None if it is not one."""
-    if packet.offset & REGISTER_INDEX_MASK != HUB_MEMORY_BASE or len(packet.data) < 4:
+    if FIREWIRE_DECODING.address(packet.offset) != HUB_MEMORY_BASE or len(packet.data) < 4:
         return None
     return int.from_bytes(packet.data[:4], "big") >> 16

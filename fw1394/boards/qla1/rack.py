@@ -26,8 +26,6 @@ from fw1394.boards.qla1.ethernet import (
     Reply,
 )
 from fw1394.boards.qla1.firewire import (
-    BROADCAST_NODE,
-    LOCAL_BUS_IDS,
     ClockedBoard,
     hub_broadcast,
     is_hub_query,
@@ -36,6 +34,8 @@ from fw1394.boards.qla1.firewire import (
 from fw1394.engine import JHU_FIRMWARE, Responder
 from fw1394.packets import BlockWriteRequest, Request, Response
 from fw1394.packets.fast import encode_packet
+from fw1394.packets.nodeid import BROADCAST_PHY
+from fw1394.packets.nodeid import node_id as node_id_of
 from fw1394.transport.eth1394_addresses import MULTICAST_FIRMWARE
 
 
@@ -71,7 +71,7 @@ class RackBoard:
 
     @property
     def node_id(self) -> int:
-        return self.responder.node_id & BROADCAST_NODE
+        return self.responder.node_id & BROADCAST_PHY
 
 
 class Rack:
@@ -100,7 +100,7 @@ class Rack:
                 git_description=git_description,
                 physical_id=node,
             )
-            responder = Responder(LOCAL_BUS_IDS | node, ClockedBoard(board), JHU_FIRMWARE)
+            responder = Responder(node_id_of(node), ClockedBoard(board), JHU_FIRMWARE)
             cabled = node == 0 or firmware >= MULTICAST_FIRMWARE
             port = (
                 EthernetPort(board, responder, RackLink(self.bus, node), ethernet_hub=node == 0)
@@ -153,7 +153,7 @@ class Rack:
 
     def _forward(self, source: int, packet: Request, now: float) -> list[tuple[int, Action]]:
         """Deliver ``packet`` on the bus from board ``source``; what follows from it."""
-        if packet.destination_node == BROADCAST_NODE or query_reaches_every_node(packet):
+        if packet.destination_node == BROADCAST_PHY or query_reaches_every_node(packet):
             targets = [n for n in range(len(self.members)) if n != source]
         else:
             targets = [

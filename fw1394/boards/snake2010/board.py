@@ -19,9 +19,11 @@ from __future__ import annotations
 import struct
 from dataclasses import dataclass
 
+from fw1394.boards.regmap import FIREWIRE
 from fw1394.boards.snake2010.channel import Channel, Wiring
 from fw1394.boards.snake2010.global_io import PhyRegisters, Watchdog
 from fw1394.boards.snake2010.physics import MotorConstants
+from fw1394.boards.snake2010.regmap import REGISTER_MAP
 from fw1394.boards.snake2010.spec import (
     CHANNEL_SHIFT,
     DEVICE_MASK,
@@ -52,7 +54,8 @@ DEFAULT_PHYSICS_STEP_TICKS = 12_288
 #: The status register has seven fault bits, so seven amplifiers at most.
 MAX_AMPLIFIERS = 7
 OFFSET_LIMIT = 1 << 48
-INDEX_MASK = 0xFFFF
+#: Offset to quadlet index, as the register map says the board decodes.
+_decode = REGISTER_MAP.decodings[FIREWIRE].address
 
 
 @dataclass(frozen=True)
@@ -308,7 +311,7 @@ class Snake2010Board:
 def _register_index(offset: int) -> int:
     if not 0 <= offset < OFFSET_LIMIT:
         raise AddressError(f"offset {offset:#x} is not a 48-bit 1394 offset")
-    return offset & INDEX_MASK
+    return _decode(offset)
 
 
 def _check_block_length(length: int) -> None:

@@ -21,6 +21,7 @@ from fw1394.boards.snake2010.spec import (
     WATCHDOG_PERIOD_MASK,
     WATCHDOG_PRESCALER,
 )
+from fw1394.packets.nodeid import BROADCAST_PHY
 
 
 class Watchdog:
@@ -89,8 +90,8 @@ class PhyRegisters:
 
     def set_physical_id(self, physical_id: int) -> None:
         """Record the node number the bus assigned (PHY register 0, bits 7-2)."""
-        if not 0 <= physical_id <= 63:
-            raise ValueError(f"physical id {physical_id} outside 0..63")
+        if not 0 <= physical_id <= BROADCAST_PHY:
+            raise ValueError(f"physical id {physical_id} outside 0..{BROADCAST_PHY}")
         self.registers[0] = physical_id << 2
 
     def request(self, value: int) -> None:

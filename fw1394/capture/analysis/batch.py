@@ -17,6 +17,7 @@ from fw1394.capture.analysis.crcvec import quadlet_view, quadlets_at
 from fw1394.capture.formats import pseudo_header as ph
 from fw1394.capture.formats.containers import Issue, PacketChunk
 from fw1394.capture.formats.record import BusRecord, Direction, RecordType
+from fw1394.packets.ack import ACK_CODE_MASK
 
 _I64 = np.int64
 
@@ -230,7 +231,7 @@ def from_fw1394_chunk(chunk: PacketChunk, keep: np.ndarray | None = None) -> Bat
     for bad in np.flatnonzero(~good)[:100]:
         issues.append(Issue(int(position[bad]), "record has no usable fw1394 pseudo-header"))
     flags = _flags_word(value)
-    ack = np.where(flags & ph.flag_bit("ack_present"), value("ack") & 0xF, -1)
+    ack = np.where(flags & ph.flag_bit("ack_present"), value("ack") & ACK_CODE_MASK, -1)
     sender, observer = value("sender"), value("observer")
     columns = [
         start + header_length,

@@ -18,6 +18,8 @@ from fw1394.capture.analysis.crcvec import crc_of_blocks, crc_of_columns, quadle
 from fw1394.capture.formats import pseudo_header as ph
 from fw1394.capture.formats.record import RecordType
 from fw1394.packets import LAYOUTS
+from fw1394.packets.accessors import TCODE
+from fw1394.packets.ack import ack_code, ack_parity_ok
 from fw1394.packets.layouts import TCODE_SHIFT
 
 _I64 = np.int64
@@ -32,7 +34,9 @@ FIELD_NAMES: tuple[str, ...] = tuple(
         if name != "header_crc"
     )
 )
-_TCODE_SPEC = next(f for f in LAYOUTS[next(iter(LAYOUTS))].header.bitfields if f.name == "tcode")
+#: Code and parity check of every ack byte, for lookups by a column of bytes.
+_ACK_CODE = np.array([ack_code(byte) for byte in range(256)], _I64)
+_ACK_PARITY_OK = np.array([ack_parity_ok(byte) for byte in range(256)])
 
 
 class Problem(IntFlag):
@@ -186,8 +190,7 @@ def decode(batch: Batch, verify_crc: bool | None = None) -> Decoded:
 
     short = is_async & (batch.length < 4)
     problems[short] |= Problem.truncated
-    spec = _TCODE_SPEC
-    found = ((quads[:, spec.quadlet] >> spec.lsb) & 0xF).astype(_I64)
+    found = ((quads[:, TCODE.quadlet] >> TCODE.shift) & TCODE.mask).astype(_I64)
     tcode = np.where(is_async & ~short, found, -1)
     header_size = _HEADER_SIZE[tcode]
     problems[(tcode >= 0) & (header_size < 0)] |= Problem.unknown_tcode
@@ -260,15 +263,15 @@ def _check_phy_and_ack(
     problems[ack & (batch.length < 1)] |= Problem.bad_record
     rows = np.flatnonzero(ack & (batch.length >= 1))
     if len(rows):
-        byte = batch.buf[batch.start[rows]].astype(_I64)
-        problems[rows[(byte >> 4) != ((byte & 0xF) ^ 0xF)]] |= Problem.ack_parity
+        byte = batch.buf[batch.start[rows]]
+        problems[rows[~_ACK_PARITY_OK[byte]]] |= Problem.ack_parity
 
 
 def ack_codes(batch: Batch) -> np.ndarray:
     """The code carried by ack records (-1 for other records)."""
     codes = np.full(len(batch), -1, _I64)
     rows = np.flatnonzero((batch.record_type == RecordType.ack) & (batch.length >= 1))
-    codes[rows] = batch.buf[batch.start[rows]].astype(_I64) >> 4
+    codes[rows] = _ACK_CODE[batch.buf[batch.start[rows]]]
     return codes
 
 

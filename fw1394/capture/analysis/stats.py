@@ -18,6 +18,8 @@ from fw1394.capture.analysis.transaction_model import ERROR_FLAGS, Flag, Kind
 from fw1394.capture.analysis.transactions import Transactions
 from fw1394.capture.formats.record import RecordType
 from fw1394.packets import AckCode, RCode, TCode, name_of
+from fw1394.packets.accessors import TCODE
+from fw1394.packets.nodeid import PHY_ID_MASK
 
 BINS_PER_OCTAVE = 64
 OCTAVES = 44  # 1 ns .. about 4.9 hours
@@ -188,8 +190,8 @@ class Stats:
             return
         latency, tcode = latency[timed], column("tcode")[timed]
         self.latency.add(np.zeros(len(latency), _I64), latency)
-        self.by_kind.add(tcode & 0xF, latency)
-        self.by_node.add(column("responder")[timed] & 0x3F, latency)
+        self.by_kind.add(tcode & TCODE.mask, latency)
+        self.by_node.add(column("responder")[timed] & PHY_ID_MASK, latency)
         size = np.maximum(column("data_length")[timed], column("resp_data_length")[timed])
         self.sample.add(latency, np.where(size < 0, 4, size), tcode)
 

@@ -28,8 +28,9 @@ from fw1394.packets import (
     Speed,
     encode,
 )
+from fw1394.packets.ack import ack_byte
+from fw1394.packets.nodeid import LOCAL_BASE
 
-LOCAL_BUS = 0xFFC0
 RT_BLOCK_BYTES = 128
 COMMAND_BYTES = 24
 
@@ -88,14 +89,14 @@ class _Bus:
         )
         self.records.append(record)
         if self.s.separate_acks and ack is not None:
-            raw = bytes([(ack << 4) | (ack ^ 0xF)])
+            raw = bytes([ack_byte(ack)])
             self.records.append(BusRecord(when + 300, RecordType.ack, raw, self.generation, None))
 
     def read(
         self, board: int, offset: int, length: int | None, value: bytes, busy: bool, fate: str
     ) -> None:
         tl = self.label()
-        node, host = LOCAL_BUS | board, LOCAL_BUS | self.host
+        node, host = LOCAL_BASE | board, LOCAL_BASE | self.host
         if length is None:
             request = self.packet(
                 ("qr", tl, node, offset),
@@ -144,7 +145,7 @@ class _Bus:
 
     def write(self, board: int, data: bytes) -> None:
         tl = self.label()
-        node, host = LOCAL_BUS | board, LOCAL_BUS | self.host
+        node, host = LOCAL_BASE | board, LOCAL_BASE | self.host
         request = self.packet(
             ("bw", tl, node, data),
             BlockWriteRequest(destination_id=node, source_id=host, tlabel=tl, offset=0, data=data),
@@ -180,7 +181,7 @@ class _Bus:
                 self.read(board, offset, None, quadlet.to_bytes(4, "big"), False, "ok")
 
     def unsolicited(self) -> None:
-        node, host = LOCAL_BUS, LOCAL_BUS | self.host
+        node, host = LOCAL_BASE, LOCAL_BASE | self.host
         stray = QuadletReadResponse(
             destination_id=host, source_id=node, tlabel=63, quadlet_data=0xDEAD
         )

@@ -7,17 +7,13 @@ from enum import IntEnum, IntFlag
 import numpy as np
 
 from fw1394.packets import AckCode, ExtendedTCode, TCode
+from fw1394.packets.nodeid import BROADCAST_PHY
+from fw1394.packets.tcodes import RESPONSE_OF_REQUEST
 
 I64 = np.int64
 
 #: The response tcode each request expects.
-EXPECTED_RESPONSE = {
-    TCode.write_quadlet_request: TCode.write_response,
-    TCode.write_block_request: TCode.write_response,
-    TCode.read_quadlet_request: TCode.read_quadlet_response,
-    TCode.read_block_request: TCode.read_block_response,
-    TCode.lock_request: TCode.lock_response,
-}
+EXPECTED_RESPONSE = RESPONSE_OF_REQUEST
 REQUESTS = np.array(sorted(EXPECTED_RESPONSE), I64)
 RESPONSES = np.array(sorted(set(EXPECTED_RESPONSE.values())), I64)
 WRITES = np.array([TCode.write_quadlet_request, TCode.write_block_request], I64)
@@ -43,7 +39,8 @@ HALVED_LOCKS = [
     ExtendedTCode.bounded_add,
     ExtendedTCode.wrap_add,
 ]
-BROADCAST_NODE = 0x3F
+#: The physical ID of broadcast, also the mask of a node ID's physical ID bits.
+BROADCAST_NODE = BROADCAST_PHY
 
 
 def code_table(codes: object) -> np.ndarray:

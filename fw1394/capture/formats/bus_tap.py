@@ -145,7 +145,7 @@ class BusTap:
                 acked.generation,
                 acked.sender,
                 acked.speed,
-                ack=ack.ack_byte >> 4,
+                ack=ack.code,
             )
             pending.key = None
         byte = bytes([ack.ack_byte])
@@ -153,9 +153,7 @@ class BusTap:
         if ack.concatenated and sender is not None:
             # The response that rode in the same tenure; the requester acks it by the
             # sequence number of this ack frame.
-            response = _record(
-                header, stamp_ns, sender, RecordType.async_packet, ack.concatenated
-            )
+            response = _record(header, stamp_ns, sender, RecordType.async_packet, ack.concatenated)
             self._push(response, (generation, sender, header.sequence))
 
     def _push(self, record: BusRecord, key: tuple[int, int, int] | None) -> None:

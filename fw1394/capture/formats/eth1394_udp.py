@@ -24,6 +24,7 @@ from fw1394.capture.formats.pcap_writer import (
 from fw1394.capture.formats.read_issues import Issue
 from fw1394.capture.formats.record import SPEED_UNKNOWN, BusRecord, Direction, RecordType
 from fw1394.packets import LAYOUTS
+from fw1394.packets.accessors import DESTINATION_ID, SOURCE_ID, TCODE, layout_reader
 from fw1394.packets.eth1394 import (
     CONTROL_WORD_SIZE,
     EXTRA_SIZE,
@@ -32,19 +33,18 @@ from fw1394.packets.eth1394 import (
     parse_request,
     parse_response,
 )
-from fw1394.packets.layouts import TCODE_BYTE, TCODE_SHIFT
+from fw1394.packets.nodeid import phy_of
+from fw1394.packets.tcodes import REQUEST_TCODES, RESPONSE_TCODES
 
-REQUEST_TCODES = frozenset({0x0, 0x1, 0x4, 0x5, 0x9})
-RESPONSE_TCODES = frozenset({0x2, 0x6, 0x7, 0xB})
 _ETHERTYPE_IPV4, _ETHERTYPE_IPV6, _ETHERTYPE_VLAN = 0x0800, 0x86DD, 0x8100
 _UDP = 17
 
 
 def wire_size(packet: bytes) -> int | None:
     """Bytes the 1394 packet at the start of ``packet`` should have, with CRCs (None: unknown)."""
-    if len(packet) <= TCODE_BYTE:
+    if len(packet) < TCODE.end:
         return None
-    layout = LAYOUTS.get(packet[TCODE_BYTE] >> TCODE_SHIFT)  # type: ignore[call-overload]
+    layout = LAYOUTS.get(TCODE.of_bytes(packet))  # type: ignore[call-overload]
     if layout is None:
         return None
     size = 4 * layout.sealed_header.count
@@ -52,9 +52,7 @@ def wire_size(packet: bytes) -> int | None:
         return int(size)
     if len(packet) < size:
         return None
-    length_quadlet = next(f for f in layout.header.bitfields if f.name == "data_length")
-    word = struct.unpack_from(">I", packet, 4 * length_quadlet.quadlet)[0]
-    length = (word >> length_quadlet.lsb) & length_quadlet.mask
+    length = layout_reader(layout.tcode, "data_length").of_bytes(packet)
     return int(size + ((length + 3) & ~3) + 4)
 
 
@@ -63,10 +61,9 @@ def classify(payload: bytes) -> str | None:
     if len(payload) == EXTRA_SIZE:
         return "extra_only"
     request, response = payload[CONTROL_WORD_SIZE:], payload[:-EXTRA_SIZE]
-    as_request = len(request) > TCODE_BYTE and request[TCODE_BYTE] >> TCODE_SHIFT in REQUEST_TCODES
+    as_request = len(request) >= TCODE.end and TCODE.of_bytes(request) in REQUEST_TCODES
     as_response = (
-        len(payload) > EXTRA_SIZE + TCODE_BYTE
-        and response[TCODE_BYTE] >> TCODE_SHIFT in RESPONSE_TCODES
+        len(payload) >= EXTRA_SIZE + TCODE.end and TCODE.of_bytes(response) in RESPONSE_TCODES
     )
     if as_request and as_response:
         # Both readings start plausibly: the one whose size adds up wins.
@@ -178,7 +175,7 @@ class Eth1394Decoder:
     def _request(self, payload: bytes, timestamp_ns: int) -> BusRecord:
         request = parse_request(payload)
         packet = request.packet
-        sender = packet[5] & 0x3F if len(packet) >= 6 else None
+        sender = phy_of(SOURCE_ID.of_bytes(packet)) if len(packet) >= SOURCE_ID.end else None
         return BusRecord(
             timestamp_ns,
             RecordType.async_packet,
@@ -207,10 +204,14 @@ class Eth1394Decoder:
                 RecordType.async_packet,
                 packet,
                 generation=fpga_generation,
-                sender=packet[5] & 0x3F if len(packet) >= 6 else None,
+                sender=phy_of(SOURCE_ID.of_bytes(packet)) if len(packet) >= SOURCE_ID.end else None,
                 speed=SPEED_UNKNOWN,
                 direction=Direction.inbound,
-                observer=packet[1] & 0x3F if len(packet) >= 2 else None,
+                observer=(
+                    phy_of(DESTINATION_ID.of_bytes(packet))
+                    if len(packet) >= DESTINATION_ID.end
+                    else None
+                ),
                 crc_placeholder=placeholder,
             )
         )

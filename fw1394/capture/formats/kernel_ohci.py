@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 
 from fw1394.capture.formats.record import SPEED_UNKNOWN, BusRecord, Direction, RecordType
 from fw1394.packets import LAYOUTS, AckCode, TCode
+from fw1394.packets.accessors import SELF_ID_PHY
+from fw1394.packets.nodeid import phy_of
 
 #: ohci.c's names for the tcodes in its log lines.
 TCODE_NAMES = {
@@ -63,7 +65,7 @@ def parse(line: str, time_ns: int, state: OhciState) -> list[BusRecord] | None:
     if (match := BUS_RESET.search(line)) is not None:
         return _bus_reset(int(match["gen"]), time_ns, state)
     if (match := SELF_IDS.search(line)) is not None:
-        state.local = int(match["id"], 16) & 0x3F
+        state.local = phy_of(int(match["id"], 16))
         return _bus_reset(int(match["gen"]), time_ns, state)
     if (match := SELF_ID.search(line)) is not None:
         quadlet = int(match["q"], 16)
@@ -74,7 +76,7 @@ def parse(line: str, time_ns: int, state: OhciState) -> list[BusRecord] | None:
                 RecordType.phy_packet,
                 raw,
                 state.generation,
-                sender=(quadlet >> 24) & 0x3F,
+                sender=SELF_ID_PHY((quadlet,)),
                 speed=SPEED_UNKNOWN,
                 crc_present=False,
                 direction=Direction.inbound,
@@ -113,23 +115,23 @@ def _bus_reset(generation: int, time_ns: int, state: OhciState) -> list[BusRecor
 def _packet(match: re.Match[str], time_ns: int, state: OhciState) -> BusRecord:
     tcode = TCODE_NAMES.get(match["tname"].strip())
     source, destination = int(match["src"], 16), int(match["dst"], 16)
-    header = [0, 0, 0, 0]
     if tcode is None:
         raise ValueError(f"unknown tcode name {match['tname']!r}")
-    header[0] = destination << 16 | int(match["tl"], 16) << 10 | int(tcode) << 4
-    header[1] = source << 16
+    layout = LAYOUTS[tcode]
+    # Fields the line does not print stay 0; the layout places the ones it does.
+    fields = dict.fromkeys(layout.header.names, 0)
+    fields |= {"destination_id": destination, "source_id": source, "tcode": tcode}
+    fields["tlabel"] = int(match["tl"], 16)
     if match["addr"]:
-        offset = int(match["addr"], 16)
-        header[1] |= offset >> 32
-        header[2] = offset & 0xFFFFFFFF
+        fields["offset"] = int(match["addr"], 16)
     specific = (match["specific"] or "").strip()
     if specific.startswith("="):
-        header[3] = int(specific[1:], 16)
+        fields["quadlet_data"] = int(specific[1:], 16)
     elif specific:
-        length, extended = (int(part, 16) for part in specific.split(","))
-        header[3] = length << 16 | extended
-    layout = LAYOUTS[tcode]
-    raw = struct.pack(f">{layout.header.count}I", *header[: layout.header.count])
+        fields["data_length"], fields["extended_tcode"] = (
+            int(part, 16) for part in specific.split(",")
+        )
+    raw = layout.header.format.pack(*layout.header.pack_fields(fields))
     direction = Direction.outbound if match["dir"] == "T" else Direction.inbound
     event = match["evt"].strip()
     ack = ACKS.get(event, 0 if event == "evt_missing_ack" else None)
@@ -139,11 +141,11 @@ def _packet(match: re.Match[str], time_ns: int, state: OhciState) -> BusRecord:
         RecordType.async_packet,
         raw,
         state.generation,
-        sender=source & 0x3F,
+        sender=phy_of(source),
         speed=int(match["spd"]),
         ack=ack,
         crc_present=False,
         direction=direction,
-        observer=local & 0x3F,
+        observer=phy_of(local),
         partial=True,
     )

@@ -16,6 +16,8 @@ from dataclasses import dataclass, replace
 
 from fw1394.capture.formats.record import SPEED_UNKNOWN, BusRecord, Direction, RecordType
 from fw1394.packets import LAYOUTS, TCode
+from fw1394.packets.accessors import DESTINATION_ID, SELF_ID_PHY, SOURCE_ID, TCODE
+from fw1394.packets.nodeid import phy_of
 
 #: ftrace / trace-cmd / perf prefix: "... 1234.567890: [firewire:]event: fields".
 LINE = re.compile(r"(?P<time>\d+\.\d+):\s+(?:firewire:)?(?P<event>[a-z_]+):\s+(?P<fields>.*)$")
@@ -118,7 +120,7 @@ def parse(line: str, little_endian: bool = True) -> TraceEvent | None:
             )
         )
     elif name == "bus_reset_handle":
-        local = _number(fields, "node_id") & 0x3F
+        local = phy_of(_number(fields, "node_id"))
         event.records.append(
             BusRecord(time_ns, RecordType.bus_reset, b"", generation, observer=local)
         )
@@ -141,7 +143,7 @@ def _self_ids(quadlets: list[int], time_ns: int, generation: int) -> list[BusRec
             RecordType.phy_packet,
             struct.pack(">I", quadlet),
             generation,
-            sender=(quadlet >> 24) & 0x3F,
+            sender=SELF_ID_PHY((quadlet,)),
             speed=SPEED_UNKNOWN,
             crc_present=False,
             direction=Direction.inbound,
@@ -157,7 +159,7 @@ def _async(
     data = _array(fields.get("data", "{}"))
     if len(header) < 3:
         raise TraceLineError("header= has fewer than 3 quadlets")
-    tcode = (header[0] >> 4) & 0xF
+    tcode = TCODE(header)
     layout = LAYOUTS.get(tcode)  # type: ignore[call-overload]
     if layout is None:
         raise TraceLineError(f"tcode {tcode:#x} has no packet layout")
@@ -169,17 +171,17 @@ def _async(
     if layout.has_data:
         order = "<" if little_endian else ">"
         raw += struct.pack(f"{order}{len(data)}I", *data)
-    source = header[1] >> 16
-    destination = header[0] >> 16
+    source = SOURCE_ID(header)
+    destination = DESTINATION_ID(header)
     local = source if direction == Direction.outbound else destination
     return BusRecord(
         time_ns,
         RecordType.async_packet,
         raw,
         generation,
-        sender=source & 0x3F,
+        sender=phy_of(source),
         speed=_number(fields, "scode") if "scode" in fields else 0xFF,
         crc_present=False,
         direction=direction,
-        observer=local & 0x3F,
+        observer=phy_of(local),
     )

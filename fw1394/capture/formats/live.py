@@ -19,6 +19,7 @@ from fw1394.capture.formats import trace_writer as tracefile
 from fw1394.capture.formats.pcap_writer import LINKTYPE_ETHERNET, PcapngWriter, PcapWriter
 from fw1394.capture.formats.record import BusRecord, RecordType
 from fw1394.packets import AckCode, AsyncPacket, PacketError, decode, name_of, summary
+from fw1394.packets.ack import ack_code
 
 POLL_S = 0.2
 FLUSH_S = 0.5
@@ -61,7 +62,7 @@ def record_summary(record: BusRecord) -> str:
     if kind == RecordType.bus_reset:
         return f"{stamp} bus reset, generation {record.generation}"
     if kind == RecordType.ack:
-        code = record.data[0] >> 4 if record.data else 0
+        code = ack_code(record.data[0]) if record.data else 0
         return f"{stamp}   {name_of(AckCode, code)}"
     try:
         if kind == RecordType.phy_packet:

@@ -19,11 +19,17 @@ from fw1394.capture.analysis import batch as batches
 from fw1394.capture.analysis.batch import Batch
 from fw1394.capture.formats.containers import Issue
 from fw1394.capture.formats.record import SPEED_UNKNOWN, BusRecord, RecordType
+from fw1394.packets.accessors import SOURCE_ID, readers
+from fw1394.packets.fields import Quadlets
+from fw1394.packets.nodeid import phy_of
 
 #: nosy-dump reads into a 128 Ki-word buffer; a longer record is corruption.
 MAX_RECORD = 128 * 1024 * 4
 BATCH_RECORDS = 20_000
 _LENGTH = struct.Struct("<i")
+#: The PCILynx snoop status word after each packet: the ack code in its low bits.
+SNOOP_ACK = Quadlets((("status", 28), ("ack", 4)))
+_SNOOP_ACK_CODE = readers(SNOOP_ACK)["ack"]
 
 
 def plausible(head: bytes) -> bool:
@@ -114,7 +120,7 @@ class _Reader:
                 Issue(position, "short packet: " + " ".join(f"{w:08x}" for w in words[1:]))
             )
             return None
-        quadlets, ack = words[1:-1], words[-1] & 0xF
+        quadlets, ack = words[1:-1], _SNOOP_ACK_CODE(words[-1:])
         wire = struct.pack(f">{len(quadlets)}I", *quadlets)
         if len(quadlets) == 2 and quadlets[0] ^ quadlets[1] == 0xFFFFFFFF:
             kind = RecordType.phy_packet
@@ -127,7 +133,7 @@ class _Reader:
             generation=self._generation,
             speed=SPEED_UNKNOWN,
             ack=ack if kind == RecordType.async_packet else None,  # PHY packets are not acked
-            sender=(quadlets[1] >> 16) & 0x3F if kind == RecordType.async_packet else None,
+            sender=phy_of(SOURCE_ID(quadlets)) if kind == RecordType.async_packet else None,
         )
 
 

@@ -16,8 +16,10 @@ from dataclasses import dataclass
 
 from construct import BitsInteger, BitStruct, Flag, Int8ub, Int16ub, Struct
 
-from fw1394.capture.analysis.bitfields import FlatField, flatten, struct_format
 from fw1394.capture.formats.record import SPEED_UNKNOWN, BusRecord, Direction, RecordType
+from fw1394.packets.ack import ACK_CODE_MASK
+from fw1394.packets.bitfields import FlatField, flatten, struct_format
+from fw1394.packets.nodeid import phy_of
 
 #: LINKTYPE_USER0; Wireshark's Lua dissector binds to the same slot.
 LINKTYPE_FW1394 = 147
@@ -121,10 +123,10 @@ def encode(record: BusRecord, crc_valid: bool) -> bytes:
         int(record.record_type),
         record.speed & 0xFF,
         encode_flags(record, crc_valid),
-        (record.ack or 0) & 0xF,
+        (record.ack or 0) & ACK_CODE_MASK,
         record.generation & 0xFF,
-        NO_NODE if record.sender is None else record.sender & 0x3F,
-        NO_NODE if record.observer is None else record.observer & 0x3F,
+        NO_NODE if record.sender is None else phy_of(record.sender),
+        NO_NODE if record.observer is None else phy_of(record.observer),
         0,
     )
 

@@ -10,11 +10,12 @@ from fw1394.capture.formats.pcap_writer import PcapngWriter, PcapWriter, open_wr
 from fw1394.capture.formats.record import BusRecord, RecordType
 from fw1394.crc import crc32
 from fw1394.packets import LAYOUTS, Layout
+from fw1394.packets.accessors import TCODE, FieldReader, layout_reader
 
 _QUADLET = struct.Struct(">I")
 _LAYOUTS: dict[int, Layout] = {int(tcode): layout for tcode, layout in LAYOUTS.items()}
-_DATA_LENGTH = {
-    tcode: next(f for f in layout.header.bitfields if f.name == "data_length")
+_DATA_LENGTH: dict[int, FieldReader] = {
+    tcode: layout_reader(tcode, "data_length")
     for tcode, layout in _LAYOUTS.items()
     if layout.has_data
 }
@@ -32,7 +33,8 @@ def crc_ok(record: BusRecord) -> bool:
         return bool(quadlet ^ check == 0xFFFFFFFF)
     if record.record_type != RecordType.async_packet or len(data) < 4:
         return False
-    layout = _LAYOUTS.get(data[3] >> 4)
+    tcode = TCODE.of_bytes(data)
+    layout = _LAYOUTS.get(tcode)
     if layout is None:
         return False
     size = layout.header_size
@@ -40,8 +42,7 @@ def crc_ok(record: BusRecord) -> bool:
         return False
     if not layout.has_data:
         return len(data) == size + 4
-    spec = _DATA_LENGTH[data[3] >> 4]
-    length = (_QUADLET.unpack_from(data, 4 * spec.quadlet)[0] >> spec.lsb) & spec.mask
+    length = _DATA_LENGTH[tcode].of_bytes(data)
     padded = (length + 3) & ~3
     end = size + 4 + padded
     if len(data) != end + 4:

@@ -30,6 +30,7 @@ from fw1394.capture.formats import sources
 from fw1394.capture.formats.record import RecordType
 from fw1394.capture.views.packet_view import PACKET_CSV, PacketFormatter
 from fw1394.capture.views.transaction_view import TRANSACTION_CSV, TransactionFormatter
+from fw1394.packets.nodeid import PHY_ID_MASK
 
 VIEWS = ("packets", "transactions", "stats", "rom")
 #: Malformed-record messages printed before the rest are only counted.
@@ -172,8 +173,8 @@ class Dissection:
             keep &= (
                 np.isin(source, ids)
                 | np.isin(destination, ids)
-                | np.isin(source & 0x3F, ids) & (source >= 0)
-                | np.isin(destination & 0x3F, ids) & (destination >= 0)
+                | np.isin(source & PHY_ID_MASK, ids) & (source >= 0)
+                | np.isin(destination & PHY_ID_MASK, ids) & (destination >= 0)
                 | np.isin(batch.sender, ids)
             )
         return keep
@@ -196,8 +197,8 @@ class Dissection:
             keep &= (
                 np.isin(requester, ids)
                 | np.isin(responder, ids)
-                | np.isin(requester & 0x3F, ids)
-                | np.isin(responder & 0x3F, ids)
+                | np.isin(requester & PHY_ID_MASK, ids)
+                | np.isin(responder & PHY_ID_MASK, ids)
             )
         return keep
 

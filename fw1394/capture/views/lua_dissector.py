@@ -10,15 +10,20 @@ holds the fixed Lua code that walks these tables.
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Iterable
 from enum import IntEnum
 
+from construct import Struct
+
 from fw1394 import __version__
-from fw1394.capture.analysis.bitfields import FlatField, flatten
 from fw1394.capture.formats import pseudo_header
 from fw1394.capture.formats.record import Direction, RecordType
 from fw1394.capture.views.lua_runtime import RUNTIME
 from fw1394.packets import LAYOUTS, PHY_CLASSES, PacketError
+from fw1394.packets.accessors import PHY_KIND_BITS, TCODE, FieldReader
+from fw1394.packets.ack import ACK_LAYOUT
+from fw1394.packets.bitfields import FlatField, flatten
 from fw1394.packets.enums import AckCode, ExtendedTCode, RCode, Retry, Speed, TCode
 from fw1394.packets.eth1394 import (
     CONTROL_WORD,
@@ -29,6 +34,7 @@ from fw1394.packets.eth1394 import (
 )
 from fw1394.packets.fields import BitField
 from fw1394.packets.phy import PhyPacket, phy_class_of
+from fw1394.packets.tcodes import REQUEST_TCODES, RESPONSE_TCODES
 
 #: Field names as the Linux kernel's firewire tracepoints spell them.
 KERNEL_NAMES = {"destination_id": "dst_id", "source_id": "src_id"}
@@ -40,8 +46,8 @@ _VALUE_NAMES: dict[str, type[IntEnum]] = {
     "retry": Retry,
     "extended_tcode": ExtendedTCode,
 }
-REQUEST_TCODES = (0x0, 0x1, 0x4, 0x5, 0x9)
-RESPONSE_TCODES = (0x2, 0x6, 0x7, 0xB)
+#: The ack byte's code and parity nibbles as flat rows (byte 0 of an ack record).
+ACK_FIELDS = {field.name: field for field in flatten(Struct("ack" / ACK_LAYOUT))}
 
 
 def kernel_name(name: str) -> str:
@@ -50,6 +56,10 @@ def kernel_name(name: str) -> str:
 
 def _lua_string(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def _lua_set(values: Iterable[int]) -> str:
+    return "{ " + ", ".join(f"[{int(value)}] = true" for value in sorted(values)) + " }"
 
 
 def _value_table(enum: type[IntEnum]) -> str:
@@ -70,12 +80,40 @@ def _bitfields_table(bitfields: Iterable[BitField], prefix: str = "") -> str:
 def _flat_table(fields: Iterable[FlatField], prefix: str) -> str:
     rows = []
     for field in fields:
-        name = prefix + field.name.replace(".", "_")
-        rows.append(
-            f"{{ {_lua_string(name)}, {field.byte_offset}, {field.byte_size}, {field.lsb}, "
-            f"{field.mask:#x}, {_lua_string(field.name)} }}"
-        )
+        rows.append(_flat_row(field, prefix + field.name.replace(".", "_")))
     return "{ " + ", ".join(rows) + " }"
+
+
+def _reader_row(reader: FieldReader) -> str:
+    """A one-quadlet field as a row ``flat_value`` reads: bytes, shift and mask from its layout."""
+    first, size, shift = reader.byte_span
+    width = reader.parts[0].width
+    row = FlatField(reader.name, first, size, shift + width - 1, width)
+    return _flat_row(row, reader.name)
+
+
+def _flat_row(field: FlatField, name: str) -> str:
+    return (
+        f"{{ {_lua_string(name)}, {field.byte_offset}, {field.byte_size}, {field.lsb}, "
+        f"{field.mask:#x}, {_lua_string(field.name)} }}"
+    )
+
+
+def _phy_kind_index(values: Iterable[int]) -> int:
+    """Index of PHY_DISPATCH: the kind bits (:data:`PHY_KIND_BITS`) side by side."""
+    index = 0
+    for reader, value in zip(PHY_KIND_BITS, values, strict=True):
+        index = index << reader.parts[0].width | value
+    return index
+
+
+def _phy_kind_rows() -> str:
+    # Each kind bit field as { lsb, mask, weight in the dispatch index }.
+    rows, weight = [], 1
+    for reader in reversed(PHY_KIND_BITS):
+        rows.append(f"{{ {reader.shift}, {reader.mask:#x}, {weight} }}")
+        weight <<= reader.parts[0].width
+    return "{ " + ", ".join(reversed(rows)) + " }"
 
 
 def _async_layouts() -> str:
@@ -97,17 +135,15 @@ def _phy_layouts() -> tuple[str, str]:
         f"fields = {_bitfields_table(cls.LAYOUT.bitfields, 'phy_')} }},"
         for cls in classes
     ]
-    # Which kind each (identifier, bit 23..22, type) makes, asked of the codec itself.
+    # Which kind each combination of the kind bits makes, asked of the codec itself.
     dispatch = []
-    for identifier in range(4):
-        for middle in range(4):
-            for kind in range(16):
-                probe = identifier << 30 | middle << 22 | kind << 18
-                try:
-                    cls = phy_class_of(probe)
-                except PacketError:
-                    continue
-                dispatch.append(f"[{identifier * 64 + middle * 16 + kind}] = {index[cls]}")
+    for values in itertools.product(*(range(r.mask + 1) for r in PHY_KIND_BITS)):
+        probe = sum(value << r.shift for r, value in zip(PHY_KIND_BITS, values, strict=True))
+        try:
+            cls = phy_class_of(probe)
+        except PacketError:
+            continue
+        dispatch.append(f"[{_phy_kind_index(values)}] = {index[cls]}")
     return "{\n" + "\n".join(layouts) + "\n}", "{ " + ", ".join(dispatch) + " }"
 
 
@@ -158,8 +194,13 @@ def generate() -> str:
         f"local UDP_PORT = {UDP_PORT}",
         f"local CONTROL_WORD_SIZE = {CONTROL_WORD_SIZE}",
         f"local EXTRA_SIZE = {EXTRA_SIZE}",
-        f"local REQUEST_TCODES = {{ {', '.join(f'[{t}] = true' for t in REQUEST_TCODES)} }}",
-        f"local RESPONSE_TCODES = {{ {', '.join(f'[{t}] = true' for t in RESPONSE_TCODES)} }}",
+        f"local REQUEST_TCODES = {_lua_set(REQUEST_TCODES)}",
+        f"local RESPONSE_TCODES = {_lua_set(RESPONSE_TCODES)}",
+        f"local TCODE = {_reader_row(TCODE)}",
+        f"local TCODE_END = {TCODE.end}",
+        f"local ACK_CODE = {_flat_row(ACK_FIELDS['ack.code'], 'ack_code')}",
+        f"local ACK_PARITY = {_flat_row(ACK_FIELDS['ack.parity'], 'ack_parity')}",
+        f"local PHY_KIND_BITS = {_phy_kind_rows()}",
         f"local tcode_names = {_value_table(TCode)}",
         f"local rcode_names = {_value_table(RCode)}",
         f"local retry_names = {_value_table(Retry)}",

@@ -88,7 +88,7 @@ end
 
 local function wire_size(tvb)
   if tvb:len() < 4 then return nil end
-  local layout = ASYNC[band(rshift(tvb(0, 4):uint(), 4), 0xF)]
+  local layout = ASYNC[flat_value(tvb, 0, TCODE)]
   if not layout then return nil end
   local size = 4 * (layout.quadlets + 1)
   if not layout.has_data then return size end
@@ -110,7 +110,7 @@ local function add_async(tvb, tree, crc_present, partial)
     tree:add(F.problem, "shorter than one quadlet")
     return "short packet"
   end
-  local tcode = band(rshift(tvb(0, 4):uint(), 4), 0xF)
+  local tcode = flat_value(tvb, 0, TCODE)
   local layout = ASYNC[tcode]
   if not layout then
     tree:add(F.problem, string.format("tcode 0x%x has no packet layout", tcode))
@@ -165,9 +165,11 @@ local function add_phy(tvb, tree, crc_present)
     return "short PHY packet"
   end
   local quadlet = tvb(0, 4):uint()
-  -- Kind by identifier (bits 31..30), bits 23..22 and the 1394a type (bits 21..18).
-  local index = rshift(quadlet, 30) * 64 + band(rshift(quadlet, 22), 3) * 16
-  index = index + band(rshift(quadlet, 18), 0xF)
+  -- Kind by identifier, bits 23..22 and the 1394a type: { lsb, mask, weight } rows.
+  local index = 0
+  for _, bits in ipairs(PHY_KIND_BITS) do
+    index = index + band(rshift(quadlet, bits[1]), bits[2]) * bits[3]
+  end
   local layout = PHY[PHY_DISPATCH[index]]
   if not layout then
     tree:add(F.problem, "identifier 3 is not a PHY packet")
@@ -191,10 +193,9 @@ end
 
 local function add_ack(tvb, tree)
   if tvb:len() < 1 then return "ack?" end
-  local byte = tvb(0, 1):uint()
-  local code = rshift(byte, 4)
+  local code = flat_value(tvb, 0, ACK_CODE)
   tree:add(F.ack_code, tvb(0, 1), code)
-  tree:add(F.ack_parity, tvb(0, 1), band(byte, 0xF))
+  tree:add(F.ack_parity, tvb(0, 1), flat_value(tvb, 0, ACK_PARITY))
   return ack_names[code] or ("ack " .. code)
 end
 
@@ -242,11 +243,11 @@ function eth1394.dissector(tvb, pinfo, tree)
     return length
   end
   local request, response = false, false
-  if length > CONTROL_WORD_SIZE + 3 then
-    request = REQUEST_TCODES[rshift(tvb(CONTROL_WORD_SIZE + 3, 1):uint(), 4)]
+  if length >= CONTROL_WORD_SIZE + TCODE_END then
+    request = REQUEST_TCODES[flat_value(tvb, CONTROL_WORD_SIZE, TCODE)]
   end
-  if length > EXTRA_SIZE + 3 then
-    response = RESPONSE_TCODES[rshift(tvb(3, 1):uint(), 4)]
+  if length >= EXTRA_SIZE + TCODE_END then
+    response = RESPONSE_TCODES[flat_value(tvb, 0, TCODE)]
   end
   if request and response then
     -- Both readings start plausibly: the one whose size adds up wins.

@@ -18,19 +18,21 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any, ClassVar
 
+from construct import Struct
 from scapy.config import conf
 from scapy.fields import BitField, StrLenField, XBitField
 from scapy.layers.inet import UDP
 from scapy.packet import Packet, Raw, bind_layers
 
-from fw1394.capture.analysis.bitfields import FlatField, flatten
 from fw1394.capture.formats import pseudo_header
 from fw1394.capture.formats.eth1394_udp import classify
 from fw1394.capture.formats.record import RecordType
 from fw1394.packets import LAYOUTS, PacketError
+from fw1394.packets.accessors import TCODE
+from fw1394.packets.ack import ACK_LAYOUT
+from fw1394.packets.bitfields import FlatField, flatten
 from fw1394.packets.eth1394 import CONTROL_WORD, EXTRA_BYTES, EXTRA_SIZE, UDP_PORT
 from fw1394.packets.fields import BitField as LayoutBit
-from fw1394.packets.layouts import TCODE_BYTE, TCODE_SHIFT
 from fw1394.packets.phy import PHY_CLASSES, phy_class_of
 
 KERNEL_NAMES = {"destination_id": "dst_id", "source_id": "src_id"}
@@ -79,8 +81,8 @@ class FW1394(Packet):
 
     @classmethod
     def dispatch_hook(cls, _pkt: bytes | None = None, *args: Any, **kargs: Any) -> type[Packet]:
-        if cls is FW1394 and _pkt and len(_pkt) > TCODE_BYTE:
-            return ASYNC_WITH_CRC.get(_pkt[TCODE_BYTE] >> TCODE_SHIFT, Raw)
+        if cls is FW1394 and _pkt and len(_pkt) >= TCODE.end:
+            return ASYNC_WITH_CRC.get(TCODE.of_bytes(_pkt), Raw)
         return cls
 
 
@@ -136,9 +138,15 @@ _PHY_KINDS = list(PHY_CLASSES.values()) if isinstance(PHY_CLASSES, dict) else li
 PHY_LAYERS = {kind.NAME: _phy_class(kind) for kind in _PHY_KINDS}
 
 
+#: The ack byte's nibbles from its layout; the code is shown as ``ack``.
+_ACK_NAMES = {"ack.code": "ack", "ack.parity": "parity"}
+
+
 class FW1394Ack(Packet):
     name = "IEEE 1394 ack"
-    fields_desc = [BitField("ack", 0, 4), BitField("parity", 0, 4)]
+    fields_desc = _bit_fields(
+        (_ACK_NAMES[field.name], field.width) for field in flatten(Struct("ack" / ACK_LAYOUT))
+    )
 
 
 class FW1394Capture(Packet):
@@ -154,9 +162,9 @@ class FW1394Capture(Packet):
     def guess_payload_class(self, payload: bytes) -> type[Packet]:
         kind = int(self.record_type)
         crc = bool(self.flags_crc_present)
-        if kind == RecordType.async_packet and len(payload) > TCODE_BYTE:
+        if kind == RecordType.async_packet and len(payload) >= TCODE.end:
             table = ASYNC_WITH_CRC if crc else ASYNC_WITHOUT_CRC
-            return table.get(payload[TCODE_BYTE] >> TCODE_SHIFT, Raw)
+            return table.get(TCODE.of_bytes(payload), Raw)
         if kind == RecordType.phy_packet:
             return FW1394Phy
         if kind == RecordType.ack:

@@ -1,9 +1,10 @@
 """Flat bit-field tables read out of ``construct`` structs.
 
-The dissector generators (Lua, scapy) and the numpy decoders need to know
-where each field sits; they read it from the one ``construct`` definition
-of a header instead of repeating it. Only the building blocks the framing
-structs use are understood: byte-level integers and ``BitStruct`` bytes.
+The dissector generators (Lua, scapy), the numpy decoders and the virtual
+bus's frame header need to know where each field sits; they read it from the
+one ``construct`` definition of a header instead of repeating it. Only the
+building blocks the framing structs use are understood: byte-level integers
+(plain, ``Const`` or ``Default``) and ``BitStruct`` bytes.
 """
 
 from __future__ import annotations
@@ -69,10 +70,17 @@ def _walk(struct: construct.Struct, prefix: str) -> Iterator[FlatField]:
         offset += size
 
 
-def struct_format(struct: construct.Struct) -> str:
-    """A big-endian :mod:`struct` format with one integer per byte-level unit."""
+def struct_format(struct: construct.Struct, skip: frozenset[str] = frozenset()) -> str:
+    """A big-endian :mod:`struct` format with one integer per byte-level unit.
+
+    Units named in ``skip`` become pad bytes, so unpacking yields only the others.
+    """
     codes = {1: "B", 2: "H", 4: "I", 8: "Q"}
-    units: dict[int, int] = {}
+    units: dict[int, tuple[int, str]] = {}
     for field in flatten(struct):
-        units[field.byte_offset] = field.byte_size
-    return ">" + "".join(codes[units[offset]] for offset in sorted(units))
+        units[field.byte_offset] = (field.byte_size, field.name)
+    parts = []
+    for offset in sorted(units):
+        size, name = units[offset]
+        parts.append(f"{size}x" if name in skip else codes[size])
+    return ">" + "".join(parts)

@@ -11,17 +11,19 @@ served register bus runs on the node's clock, as emulated boards do.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 
+from fw1394.boards.memory.board import MemorySpace
 from fw1394.engine import Reply
-from fw1394.fuzz.reference import OpenSpace
 from fw1394.node.process import BusRefusedError, Node, NodeOptions
 from fw1394.packets import PacketError
 from fw1394.packets.asynchronous import decode_async
-from fw1394.rtl.portmap import load
+from fw1394.rtl.portmap import load, split_spec
 from fw1394.rtl.simulation import Simulation, SimulationError
-from fw1394.rtl.target import split_spec
+from fw1394.transport.link import ResponderLink
 from fw1394.transport.membership import BusReset
+from fw1394.transport.station import Station
 
 __all__ = ["BusRefusedError", "RtlResponder", "check_spec", "run_rtl_node"]
 
@@ -44,7 +46,7 @@ class RtlResponder:
     def node_id(self) -> int:
         return self._node_id
 
-    def bus_reset(self, node_id: int, generation: int) -> None:
+    def bus_reset(self, *, node_id: int, generation: int) -> None:
         if node_id & 0x3F != self._node_id & 0x3F:
             self.simulation.bus_reset(node_id & 0x3F)
         self._node_id = node_id
@@ -65,6 +67,22 @@ class RtlResponder:
     def _warn(self, text: str) -> None:
         if self.on_warning is not None:
             self.on_warning(text)
+
+
+class RtlLink(ResponderLink):
+    """The node's link layer with the design behind it: raw bytes go to the RTL as
+    received (the design decides what is a packet), its answer goes on the bus."""
+
+    def __init__(self, responder: RtlResponder, station: Station, *, epoch: float) -> None:
+        super().__init__(responder, station.send, station, epoch=epoch)  # type: ignore[arg-type]
+        self.rtl = responder
+
+    def serve(self, payload: bytes, requester: int, sequence: int, now: float) -> Reply:
+        reply = self.rtl.receive(payload, now - self.epoch)
+        if reply.ack is not None or reply.response is not None:
+            tlabel = payload[2] >> 2 if len(payload) >= 3 else 0
+            self.answer(reply, tlabel, requester, sequence)
+        return reply
 
 
 def run_rtl_node(
@@ -93,10 +111,11 @@ def run_rtl_node(
     try:
         if not simulation.acked:
             raise OSError(f"port map {portmap.path.name}: the design never acknowledged a read")
-        node = Node(OpenSpace(), options)
+        node = Node(MemorySpace(4), options)  # answers come from the simulation
         responder = RtlResponder(simulation, 0xFFC0)
         responder.on_warning = on_warning
-        node.responder = responder  # type: ignore[assignment]
+        node.link = RtlLink(responder, node.station, epoch=time.monotonic())
+        node.link.on_drop = node._drop_response
         node.on_reset = on_reset
         node.on_warning = on_warning
 

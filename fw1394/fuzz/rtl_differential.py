@@ -6,7 +6,7 @@ same time on the same clock; both answers are put in wire form (ack code,
 response bytes with their CRCs, tenure) and must be identical. A disagreement
 names the case and both answers.
 
-    python -m fw1394.rtl.differential [--cases 5000] [--seed 0] [--portmap thesis]
+    python -m fw1394.fuzz.rtl_differential [--cases 5000] [--seed 0] [--portmap thesis]
 """
 
 from __future__ import annotations
@@ -24,12 +24,12 @@ from fw1394.fuzz.generate import Generator
 from fw1394.fuzz.inproc import InprocTarget
 from fw1394.fuzz.judge import describe
 from fw1394.fuzz.offsets import offset_model
+from fw1394.fuzz.rtl_target import RtlTarget
 from fw1394.fuzz.target import Observation, Observed, TargetGone
 from fw1394.fuzz.trial import wire_of
 from fw1394.packets import AsyncPacket
 from fw1394.packets.asynchronous import encode_async
 from fw1394.rtl.portmap import PortMapError, load
-from fw1394.rtl.target import RtlTarget
 
 NODE_ID = 0xFFC0
 #: Cases per exchange with the simulator (fewer round trips; the same answers).
@@ -102,7 +102,7 @@ def _describe(observed: Observed) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m fw1394.rtl.differential",
+        prog="python -m fw1394.fuzz.rtl_differential",
         description="Send the same seeded cases to a board emulator and to a link design; "
         "every answer must agree (exit 1 on a disagreement).",
     )

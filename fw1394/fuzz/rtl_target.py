@@ -1,4 +1,4 @@
-"""``rtl:PORTMAP``: a link design in Icarus Verilog, fuzzed at its PHY-link pins.
+"""``rtl:PORTMAP``: a link design in Icarus Verilog (:mod:`fw1394.rtl`), fuzzed at its pins.
 
 The design runs in a child process (vvp with cocotb, :mod:`fw1394.rtl.simulation`);
 the PHY model delivers each packet on CTL/D and captures the ack and any
@@ -18,7 +18,7 @@ from pathlib import Path
 
 from fw1394.fuzz.target import Observation, Observed, TargetCrash, TargetGone, Visibility, Wire
 from fw1394.rtl.defects import RTL_DEFECTS, define
-from fw1394.rtl.portmap import PortMap, PortMapError, load
+from fw1394.rtl.portmap import PortMap, PortMapError, load, split_spec
 from fw1394.rtl.simulation import Simulation, SimulationError
 
 
@@ -105,18 +105,6 @@ class RtlTarget:
 
     def close(self) -> None:
         self.sim.close()
-
-
-def split_spec(spec: str) -> tuple[str, Path | None]:
-    """``PORTMAP[,waves=FILE]``: the port map, and where to write a waveform (VCD or FST)."""
-    portmap, _, options = spec.partition(",")
-    waves = None
-    for option in filter(None, options.split(",")):
-        key, _, value = option.partition("=")
-        if key != "waves" or not value:
-            raise PortMapError(f"rtl target option {option!r}: the only option is waves=FILE")
-        waves = Path(value).resolve()
-    return portmap, waves
 
 
 def open_rtl(
