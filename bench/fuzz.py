@@ -5,10 +5,14 @@ case, a read-back after every write, a register sweep every 64 cases) and no
 shrinking; the rate counts cases only, not start-up. Baselines measured in the
 same run: the case generator alone, and one bare responder answering the same
 cases (the least a fuzzer with a reference model must spend is two of those).
-Targets: >= 5,000 cases/s in-process, >= 1,500 cases/s over UDP.
+Targets: >= 5,000 cases/s in-process, >= 1,500 cases/s over UDP, >= 50 cases/s
+for the thesis link RTL in Icarus Verilog (``rtl:thesis``; skipped without
+iverilog and cocotb), run interleaved with ``inproc:snake2010`` on the same
+seeds as its baseline.
 
-    python bench/fuzz.py [--cases 20000] [--remote-cases 5000] [--jobs-rounds 3]
+    python bench/fuzz.py [--cases 20000] [--remote-cases 5000] [--rtl-cases 1000]
     python bench/fuzz.py --jobs-only [--jobs-cases 60000] [--jobs-rounds 5]
+    python bench/fuzz.py --rtl-only [--rtl-cases 1000]
 
 ``--jobs 2`` against one job: the same in-process campaign (the same total
 cases, seeds derived from one) timed from start to merged report, process
@@ -41,6 +45,7 @@ NODE = 0xFFC0
 IN_PROCESS_TARGET = 5_000
 UDP_TARGET = 1_500
 JOBS_TARGET = 1.7
+RTL_TARGET = 50
 KINDS = ("memory", "qla1", "snake2010")
 
 
@@ -107,11 +112,16 @@ def main() -> None:
     parser.add_argument("--jobs-cases", type=int, default=60_000, help="cases per jobs run")
     parser.add_argument("--jobs-rounds", type=int, default=3, help="interleaved jobs rounds")
     parser.add_argument("--jobs-only", action="store_true", help="only --jobs 2 against 1")
+    parser.add_argument("--rtl-cases", type=int, default=1_000, help="cases per RTL run (0: skip)")
+    parser.add_argument("--rtl-only", action="store_true", help="only the RTL target")
     args = parser.parse_args()
     if args.jobs_only:
         jobs_speedup(args.jobs_cases, args.jobs_rounds)
         return
     print(f"{'target':34} {'cases/s':>8} {'target':>7}  baselines (same run)")
+    if args.rtl_only:
+        rtl_rates(args.rtl_cases)
+        return
     worst_local = float("inf")
     for kind in KINDS:
         rate, _ = campaign_rate(
@@ -131,6 +141,9 @@ def main() -> None:
     local = verdict(worst_local, IN_PROCESS_TARGET)
     print(f"\nin-process: slowest {worst_local:,.0f} cases/s ({local})")
     print(f"over UDP:   slowest {udp:,.0f} cases/s ({verdict(udp, UDP_TARGET)})")
+    if args.rtl_cases:
+        print()
+        rtl_rates(args.rtl_cases)
     print()
     jobs_speedup(args.jobs_cases, args.jobs_rounds)
 
@@ -186,6 +199,26 @@ def jobs_speedup(cases: int, rounds: int) -> None:
         f"median ratio {median:.2f}, machine ceiling {ceiling:.2f} "
         f"(target >= {JOBS_TARGET} on 2 idle cores: {met})"
     )
+
+
+def rtl_rates(cases: int) -> None:
+    """The thesis RTL (rtl:thesis) beside inproc:snake2010, three interleaved rounds."""
+    from fw1394.rtl.simulation import missing_tools
+
+    problem = missing_tools()
+    if problem:
+        print(f"{'rtl:thesis':34} skipped: {problem}")
+        return
+    rtl, emulated = [], []
+    for seed in range(3):
+        rtl.append(campaign_rate("rtl:thesis", cases, seed=seed)[0])
+        emulated.append(campaign_rate("inproc:snake2010", cases, seed=seed)[0])
+    rate, baseline = sorted(rtl)[1], sorted(emulated)[1]
+    print(
+        f"{'rtl:thesis (Icarus + cocotb)':34} {rate:8,.0f} {RTL_TARGET:7,}  "
+        f"inproc:snake2010 {baseline:,.0f}/s, ratio {baseline / rate:,.0f}x"
+    )
+    print(f"RTL:        median of 3 {rate:,.0f} cases/s ({verdict(rate, RTL_TARGET)})")
 
 
 def verdict(rate: float, target: int) -> str:

@@ -35,6 +35,7 @@ BUS_EXAMPLES = """\
 examples:
   fw1394 bus up --nodes 4                 four memory-backed nodes on bus "default"
   fw1394 bus up --name arm --nodes 2 --board snake2010
+  fw1394 bus up --nodes 1 --board rtl:thesis   the thesis link RTL in simulation (docs/rtl.md)
   fw1394 bus status --name arm
   fw1394 bus reset                        ask the coordinator for a bus reset
   fw1394 bus down --name arm              stop every process of bus "arm"

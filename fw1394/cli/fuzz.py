@@ -80,7 +80,7 @@ def register(subparsers: Any) -> None:
 
 def add_run_options(run: argparse.ArgumentParser) -> None:
     run.add_argument(
-        "target", metavar="TARGET", help="inproc:BOARD, bus:NAME/NODE, udp:HOST[:PORT]"
+        "target", metavar="TARGET", help="inproc:BOARD, bus:NAME/NODE, udp:HOST[:PORT], rtl:PORTMAP"
     )
     what = run.add_argument_group("contract and model")
     what.add_argument(

@@ -62,8 +62,9 @@ def replay_all(
         for path, finding in loaded:
             settings = Settings.from_json(finding.settings)
             if target is not None:
-                # Defects are planted in-process only; a remote node brings its own.
-                keep = settings.defects if target.startswith("inproc:") else ()
+                # Defects are planted in-process (or in the simulated RTL) only; a
+                # remote node brings its own.
+                keep = settings.defects if target.startswith(("inproc:", "rtl:")) else ()
                 settings = replace(settings, target=target, defects=keep)
             if settings not in opened:
                 remote = settings.scheme != "inproc"

@@ -33,7 +33,7 @@ class SettingsError(ValueError):
 class Settings:
     """A campaign's target, contract, model and limits."""
 
-    #: ``inproc:BOARD``, ``bus:NAME/NODE`` or ``udp:HOST[:PORT]``.
+    #: ``inproc:BOARD``, ``bus:NAME/NODE``, ``udp:HOST[:PORT]`` or ``rtl:PORTMAP``.
     target: str
     #: The contract the node is held to: a key of :data:`CONTRACTS`.
     contract: str = "thesis"

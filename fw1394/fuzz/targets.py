@@ -6,7 +6,9 @@ Target specifications:
   kinds, or ``memory``);
 * ``bus:NAME/NODE``: node NODE (a physical ID) of the virtual bus NAME;
 * ``udp:HOST[:PORT]``: a node behind a UDP tunnel, speaking fw1394's frames or,
-  with ``eth1394``, the JHU Eth1394 framing.
+  with ``eth1394``, the JHU Eth1394 framing;
+* ``rtl:PORTMAP[,waves=FILE]``: a link design in a Verilog simulator (``fw1394.rtl``),
+  PORTMAP a port map file or the name of a shipped one (``thesis``).
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from fw1394.fuzz.settings import Settings, SettingsError, default_policy
 from fw1394.fuzz.target import Target
 from fw1394.fuzz.trial import Trial
 
-SCHEMES = ("inproc", "bus", "udp")
+SCHEMES = ("inproc", "bus", "udp", "rtl")
 
 
 def kinds() -> tuple[str, ...]:
@@ -33,6 +35,8 @@ def target_kind(settings: Settings) -> str | None:
     scheme, _, rest = settings.target.partition(":")
     if scheme == "inproc":
         return rest
+    if scheme == "rtl" and settings.model is None:
+        return _rtl_model(rest)
     return settings.model
 
 
@@ -41,7 +45,8 @@ def check(settings: Settings) -> None:
     scheme, colon, rest = settings.target.partition(":")
     if scheme not in SCHEMES or not colon or not rest:
         raise SettingsError(
-            f"target {settings.target!r}: use inproc:BOARD, bus:NAME/NODE or udp:HOST[:PORT]"
+            f"target {settings.target!r}: use inproc:BOARD, bus:NAME/NODE, udp:HOST[:PORT]"
+            " or rtl:PORTMAP"
         )
     for kind in (rest if scheme == "inproc" else None, settings.model):
         if kind is not None and kind not in BOARDS:
@@ -54,6 +59,8 @@ def check(settings: Settings) -> None:
             raise SettingsError(
                 f"unknown defect {unknown[0]!r} for {rest}; see `fw1394 fuzz defects`"
             )
+    elif scheme == "rtl":
+        _check_rtl(settings, rest)
     elif settings.defects:
         raise SettingsError("--defect plants bugs in-process; start the node with its own --defect")
     elif settings.policy is not None:
@@ -79,6 +86,19 @@ def open_target(settings: Settings) -> Target:
         from fw1394.fuzz.bustarget import BusTarget
 
         return BusTarget.open(rest, timeout=settings.timeout)
+    if scheme == "rtl":
+        from fw1394.fuzz.rtl_target import open_rtl
+
+        try:
+            return open_rtl(
+                rest,
+                node_id=settings.node_id,
+                board_id=settings.board_id,
+                defects=frozenset(settings.defects),
+                timeout=settings.timeout,
+            )
+        except ValueError as error:  # the port map, or a design that never acks
+            raise SettingsError(str(error)) from None
     from fw1394.fuzz.udptarget import UdpTarget
 
     return UdpTarget.open(
@@ -121,3 +141,32 @@ def open_trial(settings: Settings, target: Target | None = None) -> Trial:
         state_every=settings.state_every,
         history=settings.history,
     )
+
+
+# -- rtl: (fw1394.rtl) ---------------------------------------------------------------------
+def _rtl_model(spec: str) -> str | None:
+    """The board kind a port map names (its register bus is served by that board)."""
+    from fw1394.rtl.portmap import PortMapError, load, split_spec
+
+    try:
+        return load(split_spec(spec)[0]).model
+    except PortMapError:
+        return None
+
+
+def _check_rtl(settings: Settings, spec: str) -> None:
+    from fw1394.rtl.defects import known_rtl_defects
+    from fw1394.rtl.portmap import PortMapError, load, split_spec
+
+    try:
+        portmap = load(split_spec(spec)[0])
+    except PortMapError as error:
+        raise SettingsError(str(error)) from None
+    if settings.policy is not None:
+        raise SettingsError("--policy is for in-process targets; the design answers its own way")
+    known = known_rtl_defects(portmap)
+    unknown = sorted(set(settings.defects) - known.keys())
+    if unknown:
+        raise SettingsError(
+            f"unknown defect {unknown[0]!r} for an RTL target; known: " + ", ".join(sorted(known))
+        )

@@ -177,6 +177,7 @@ class Trial:
                 found.append(violation)
         if any(sent.role == "probe" for sent in batch):
             found += self._process_check()
+        found += self._interface_check()
         if any(v.oracle in _STOPPING for v in found):
             self.broken = True
         return found
@@ -187,6 +188,17 @@ class Trial:
         if problem is None:
             return []
         return [Violation("process", problem.split(":")[0], "the node's process alive", problem)]
+
+    def _interface_check(self) -> list[Violation]:
+        # Targets that watch the node's pins (rtl:) report the interface rules it broke.
+        take = getattr(self.target, "interface_violations", None)
+        if take is None:
+            return []
+        self.checks["interface"] += 1
+        return [
+            Violation("interface", line.split(":")[0], "the PHY-link interface rules kept", line)
+            for line in take()
+        ]
 
     # -- oracles ------------------------------------------------------------------------
     def _judge(

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 from dataclasses import dataclass, field
+from typing import Any
 
 from fw1394.boards.registry import BOARDS, check_defects
 from fw1394.engine.policy import POLICIES
@@ -23,6 +24,10 @@ DEFAULT_TIMING = Timing()
 DEFAULT_BOARD = "memory"
 #: The firmware a board with an Ethernet side runs unless told otherwise (bridge mode).
 DEFAULT_FIRMWARE = 8
+
+
+#: Boards named ``rtl:PORTMAP`` are link designs in simulation (fw1394.rtl, docs/rtl.md).
+RTL_PREFIX = "rtl:"
 
 
 class NodeDescriptionError(ValueError):
@@ -191,12 +196,22 @@ def member_arguments(args: argparse.Namespace) -> list[str]:
 
 
 def check_board(kind: str) -> None:
+    if kind.startswith(RTL_PREFIX):
+        _rtl_portmap(kind)
+        return
     if kind not in BOARDS:
         known = ", ".join(sorted(BOARDS))
         raise NodeDescriptionError(f"unknown board kind {kind!r}; known kinds: {known}")
 
 
 def checked_defects(kind: str, names: list[str]) -> frozenset[str]:
+    if kind.startswith(RTL_PREFIX):
+        from fw1394.rtl.defects import known_rtl_defects
+
+        unknown = sorted(set(names) - known_rtl_defects(_rtl_portmap(kind)).keys())
+        if unknown:
+            raise NodeDescriptionError(f"unknown defect {unknown[0]!r} for {kind}; see docs/rtl.md")
+        return frozenset(names)
     try:
         return check_defects(kind, names)
     except ValueError as error:
@@ -205,6 +220,12 @@ def checked_defects(kind: str, names: list[str]) -> frozenset[str]:
 
 def check_ethernet(kind: str, eth1394: str | None, firmware: int) -> None:
     """The Ethernet options make sense for board ``kind`` (before any process starts)."""
+    if kind.startswith(RTL_PREFIX):
+        if eth1394 is not None:
+            raise NodeDescriptionError(
+                "--eth1394: a link design in simulation has no Ethernet side"
+            )
+        return
     entry = BOARDS[kind]
     if entry.node_program is None:
         if eth1394 is not None:
@@ -220,7 +241,7 @@ def check_ethernet(kind: str, eth1394: str | None, firmware: int) -> None:
 def ethernet_arguments(kind: str, args: argparse.Namespace) -> tuple[str, ...]:
     """The Ethernet options again for nodes of ``kind`` (none for a kind without them)."""
     check_ethernet(kind, args.eth1394, args.firmware)
-    if BOARDS[kind].node_program is None:
+    if kind.startswith(RTL_PREFIX) or BOARDS[kind].node_program is None:
         return ()
     out: tuple[str, ...] = ("--firmware", str(args.firmware))
     return out if args.eth1394 is None else (*out, "--eth1394", args.eth1394)
@@ -251,3 +272,12 @@ def description_from_arguments(args: argparse.Namespace) -> NodeDescription:
         eth1394=args.eth1394,
         firmware=args.firmware,
     )
+
+
+def _rtl_portmap(kind: str) -> Any:
+    from fw1394.rtl.portmap import PortMapError, load, split_spec
+
+    try:
+        return load(split_spec(kind.removeprefix(RTL_PREFIX))[0])
+    except PortMapError as error:
+        raise NodeDescriptionError(str(error)) from None

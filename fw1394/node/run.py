@@ -7,7 +7,7 @@ from typing import Any
 
 from fw1394.boards.registry import BOARDS, board_defects, make_board
 from fw1394.engine.policy import POLICIES
-from fw1394.node.description import NodeDescription
+from fw1394.node.description import RTL_PREFIX, NodeDescription
 from fw1394.node.process import BusRefusedError, NodeOptions, run_node
 from fw1394.transport.membership import BusReset
 from fw1394.transport.procs import die_with_parent
@@ -28,8 +28,11 @@ def run(node: NodeDescription) -> None:
     """
     if node.parent_pid is not None:
         die_with_parent(node.parent_pid)
-    kind = BOARDS[node.board]
     name = node.bus.name
+    if node.board.startswith(RTL_PREFIX):
+        _run_rtl(node)
+        return
+    kind = BOARDS[node.board]
     try:
         if kind.node_program is not None:
             kind.node_program.run(
@@ -61,6 +64,27 @@ def run(node: NodeDescription) -> None:
         raise NodeStartError(str(error)) from None
     except OSError as error:
         raise NodeStartError(f"cannot join bus {name!r}: {error}") from None
+
+
+def _run_rtl(node: NodeDescription) -> None:
+    # A link design in simulation (fw1394.rtl): its answers come from the RTL.
+    from fw1394.node.rtl import run_rtl_node
+
+    options = NodeOptions(
+        config=node.bus,
+        board_id=node.board_id,
+        rank=node.rank,
+        timing=node.timing,
+        faults=node.faults,
+        defects=node.defects,
+    )
+    name = node.bus.name
+    try:
+        run_rtl_node(node.board, options, on_reset=None if node.quiet else _log, on_warning=_warn)
+    except BusRefusedError as error:
+        raise NodeStartError(f"bus {name!r} refused this node: {error}") from None
+    except (ValueError, OSError) as error:
+        raise NodeStartError(f"cannot run the RTL node on bus {name!r}: {error}") from None
 
 
 def _board(node: NodeDescription) -> Any:

@@ -38,6 +38,7 @@ def test_run_saves_reproducers_that_replay(
         "liveness",
         "state",
         "process",
+        "interface",
     }
     loaded = load(out)
     assert loaded and all(f.reproduced and f.shrunk for _, f in loaded)

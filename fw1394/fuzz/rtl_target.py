@@ -1,0 +1,122 @@
+"""``rtl:PORTMAP``: a link design in Icarus Verilog (:mod:`fw1394.rtl`), fuzzed at its pins.
+
+The design runs in a child process (vvp with cocotb, :mod:`fw1394.rtl.simulation`);
+the PHY model delivers each packet on CTL/D and captures the ack and any
+response the link transmits, so an observation carries the real ack code, the
+response's wire bytes and whether it shared the ack's bus tenure. The
+simulation is clocked by the fuzzer's time (the board behind a register bus
+follows it exactly as the reference model does), so comparisons are exact.
+Broken interface rules (ack outside the ack gap, Hold too long, driving on the
+PHY's turn, malformed LREQ streams) come back beside the replies and become
+findings of the ``interface`` oracle. A restart resets the design and the board;
+a dead simulator is started again.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from fw1394.fuzz.target import Observation, Observed, TargetCrash, TargetGone, Visibility, Wire
+from fw1394.rtl.defects import RTL_DEFECTS, define
+from fw1394.rtl.portmap import PortMap, PortMapError, load, split_spec
+from fw1394.rtl.simulation import Simulation, SimulationError
+
+
+class NeverAcks(PortMapError):
+    """Under this port map the design does not acknowledge a valid packet."""
+
+
+class RtlTarget:
+    """The design of ``portmap`` as node ``node_id``, with planted ``defects``."""
+
+    visibility = Visibility()
+    needs_fence = False
+    restartable = True
+
+    def __init__(
+        self,
+        portmap: PortMap,
+        *,
+        node_id: int,
+        board_id: int = 0,
+        defects: frozenset[str] = frozenset(),
+        timeout: float = 30.0,
+        waves: Path | None = None,
+    ) -> None:
+        self.portmap = portmap
+        self.node_id = node_id
+        self.description = f"rtl:{portmap.path.name} ({portmap.top})"
+        self._options = {
+            "physical_id": node_id & 0x3F,
+            "board_id": board_id,
+            "defines": tuple(define(name) for name in sorted(defects & RTL_DEFECTS.keys())),
+            "board_defects": tuple(sorted(defects - RTL_DEFECTS.keys())),
+            "waves": waves,
+            "timeout": max(timeout, 10.0),
+        }
+        self._interface: list[str] = []
+        self.sim = self._start()
+
+    def _start(self) -> Simulation:
+        try:
+            sim = Simulation(self.portmap, **self._options)  # type: ignore[arg-type]
+        except SimulationError as error:
+            raise TargetGone(f"{self.description}: {error}") from None
+        if not sim.acked:
+            sim.close()
+            raise NeverAcks(
+                f"port map {self.portmap.path.name}: the design never acknowledged a valid "
+                f"quadlet read after reset (within {self.portmap.ack_gap} cycles); check the "
+                "reset polarity, the bit order of CTL and D (ctl0, d0), the pin style, the "
+                "LREQ pin and [phy] ack_gap"
+            )
+        return sim
+
+    def exchange(self, batch: list[Wire], now: float) -> list[Observed]:
+        try:
+            answer = self.sim.exchange([wire.raw for wire in batch], now)
+        except SimulationError as error:
+            raise TargetCrash(f"simulator-gone: {error}") from None
+        self._interface += answer["violations"]
+        return [
+            Observation(ack, None if response is None else bytes.fromhex(response), tenure)
+            for ack, response, tenure in answer["replies"]
+        ]
+
+    def interface_violations(self) -> list[str]:
+        """Interface rules broken since the last call (one line each, signature first)."""
+        found, self._interface = self._interface, []
+        return found
+
+    def problem(self) -> str | None:
+        if not self.sim.alive():
+            return f"process-gone: the simulator exited ({self.sim.log_tail()})"
+        return None
+
+    def restart(self) -> None:
+        if self.sim.alive():
+            try:
+                self.sim.restart()
+                return
+            except SimulationError:
+                pass
+        self.sim.close()
+        self.sim = self._start()
+
+    def close(self) -> None:
+        self.sim.close()
+
+
+def open_rtl(
+    spec: str, *, node_id: int, board_id: int, defects: frozenset[str], timeout: float
+) -> RtlTarget:
+    """The target ``rtl:SPEC`` names (see :func:`split_spec`)."""
+    portmap, waves = split_spec(spec)
+    return RtlTarget(
+        load(portmap),
+        node_id=node_id,
+        board_id=board_id,
+        defects=defects,
+        timeout=timeout,
+        waves=waves,
+    )

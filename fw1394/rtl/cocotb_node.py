@@ -1,0 +1,144 @@
+"""The simulation side of an RTL target: a cocotb test that serves packets from a socket.
+
+The simulator (vvp with cocotb) runs this module's one test. It connects back
+to the process that started it (:mod:`fw1394.rtl.simulation`), resets the
+design, lets it learn its node ID, checks that it acknowledges a valid read,
+and then answers requests, one JSON line each, until told to stop. While it
+waits for a request the simulation does not advance.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+from typing import Any
+
+import cocotb
+from cocotb.clock import Clock
+
+from fw1394.boards.registry import make_board
+from fw1394.packets import QuadletReadRequest
+from fw1394.packets.asynchronous import encode_async
+from fw1394.rtl.phy import Phy
+from fw1394.rtl.portmap import load
+from fw1394.rtl.regbus import RegisterServer
+
+#: Half of the 49.152 MHz SCLK period, in picoseconds (rounded).
+HALF_PERIOD_PS = 10_172
+RESET_CYCLES = 4
+SETTLE_CYCLES = 48
+CONFIG_VARIABLE = "FW1394_RTL_CONFIG"
+
+
+class Node:
+    """The design under test with the PHY model and, if any, the board behind its bus."""
+
+    def __init__(self, dut: Any, config: dict[str, Any]) -> None:
+        self.dut = dut
+        self.config = config
+        self.portmap = load(config["portmap"])
+        self.phy: Phy | None = None
+
+    async def start(self, *, check: bool = True) -> bool:
+        """Reset the design, give it its node ID; whether it acks a valid read."""
+        config = self.config
+        server = None
+        if self.portmap.served and self.portmap.model is not None:
+            space = make_board(
+                self.portmap.model,
+                board_id=config["board_id"],
+                defects=frozenset(config["defects"]),
+            )
+            server = RegisterServer(space, byte_addressed=self.portmap.model == "memory")
+        phy = self.phy = Phy(
+            self.dut,
+            physical_id=config["physical_id"],
+            ack_gap=self.portmap.ack_gap,
+            registers=server,
+            poll_reads="rd" not in self.portmap.registers,
+        )
+        self.dut.rst.value = 1
+        await phy.idle(RESET_CYCLES)
+        self.dut.rst.value = 0
+        await phy.idle(RESET_CYCLES)
+        await phy.bus_reset()
+        for _ in range(SETTLE_CYCLES):
+            await phy.step()
+            await phy.service()
+        if not check:
+            return True
+        probe = QuadletReadRequest(
+            destination_id=0xFFC0 | config["physical_id"],
+            tlabel=0,
+            source_id=0xFFC1 if config["physical_id"] != 1 else 0xFFC2,
+            offset=config.get("check_offset", 0),
+        )
+        reply = await phy.exchange(encode_async(probe))
+        phy.violations.clear()
+        return reply.ack is not None
+
+    async def renumber(self, physical_id: int) -> None:
+        """A bus reset after which this node has ``physical_id``."""
+        phy = self.phy
+        assert phy is not None
+        phy.physical_id = physical_id
+        phy.set_id()
+        await phy.bus_reset()
+        for _ in range(SETTLE_CYCLES):
+            await phy.step()
+            await phy.service()
+
+    async def exchange(
+        self, now: float, packets: list[str], interrupting: int = 0
+    ) -> dict[str, Any]:
+        phy = self.phy
+        assert phy is not None
+        if phy.server is not None:
+            phy.server.set_time(now)
+        replies = []
+        for text in packets:
+            reply = await phy.exchange(bytes.fromhex(text), interrupting=interrupting)
+            replies.append(
+                [
+                    reply.ack,
+                    None if reply.response is None else reply.response.hex(),
+                    reply.concatenated,
+                ]
+            )
+        violations, phy.violations = phy.violations, []
+        return {"replies": replies, "violations": violations, "cycles": phy.cycles}
+
+
+@cocotb.test()
+async def serve(dut: Any) -> None:
+    """Answer the parent's requests until it says stop or goes away."""
+    config = json.loads(os.environ[CONFIG_VARIABLE])
+    Clock(dut.sclk, 2 * HALF_PERIOD_PS, unit="ps").start()
+    sock = socket.create_connection(("127.0.0.1", config["port"]))
+    stream = sock.makefile("rwb")
+    node = Node(dut, config)
+
+    def send(message: dict[str, Any]) -> None:
+        stream.write(json.dumps(message).encode() + b"\n")
+        stream.flush()
+
+    send({"ready": True, "acked": await node.start()})
+    for line in stream:
+        request = json.loads(line)
+        op = request.get("op")
+        if op == "exchange":
+            send(
+                await node.exchange(
+                    request["now"], request["packets"], request.get("interrupting", 0)
+                )
+            )
+        elif op == "bus_reset":
+            await node.renumber(request["physical_id"])
+            send({"ready": True})
+        elif op == "restart":
+            send({"ready": True, "acked": await node.start(check=False)})
+        else:
+            break
+    stream.close()
+    sock.close()

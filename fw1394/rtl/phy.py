@@ -1,0 +1,400 @@
+"""The PHY on a link design's pins, for cocotb: delivers, grants, captures, checks.
+
+It plays a 1394a PHY (``docs/rtl.md``, the interface facts in phy-link.md) on
+the canonical signals of the harness wrapper (:mod:`fw1394.rtl.portmap`): one
+``phy`` word it drives (drive flag, CTL, D) and one ``mon`` word it reads back
+(the link's CTL/D and whether it drives, LREQ, busy, register-bus strobes).
+
+Each clock cycle is one step: drive the PHY's value for the next rising edge,
+wait for the falling edge, read what the link registered at the rising edge.
+Every link request on LREQ is decoded; bus requests are granted, register
+reads answered with a status transfer, register writes applied (IBR starts a
+bus reset). What the link transmits after a grant is captured packet by packet.
+Broken interface rules are collected in :attr:`Phy.violations`, one line each,
+prefixed with a short signature.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Any, NamedTuple
+
+from cocotb.triggers import FallingEdge
+
+from fw1394.rtl.portmap import (
+    MON_BLK_RD,
+    MON_BLK_WR,
+    MON_BUSY,
+    MON_CTL,
+    MON_LREQ,
+    MON_OE,
+    MON_RD,
+    MON_WR,
+)
+from fw1394.rtl.regbus import RegisterServer
+
+IDLE, STATUS, RECEIVE, GRANT = 0b00, 0b01, 0b10, 0b11
+HOLD, TRANSMIT = 0b01, 0b10
+#: S400 speed code, D0 first.
+SPEED_S400 = 0x50
+#: Hold may last this many cycles at most (1394a).
+MAX_HOLD = 47
+#: Request types on LREQ, and the bits after the type (the stop bit included).
+REQUEST_BITS = {0: 4, 1: 4, 2: 4, 3: 4, 4: 5, 5: 13, 6: 2}
+BUS_REQUESTS = {0: "ImmReq", 1: "IsoReq", 2: "PriReq", 3: "FairReq"}
+#: A link granted the bus must start driving within this many cycles.
+GRANT_TIMEOUT = 8
+#: Cycles a link may stay busy after its answer (a 2 KiB write commit and more).
+BUSY_LIMIT = 20_000
+#: Cycles an owned bus may stay in use (the longest packet and then some).
+OWN_LIMIT = 80_000
+
+
+class Request(NamedTuple):
+    """One decoded LREQ stream: its type and the bits after the type."""
+
+    kind: int
+    payload: int
+    width: int
+
+
+class Capture(NamedTuple):
+    """What the link sent in one bus ownership."""
+
+    packets: list[bytes]
+    #: Cycles from the end of the received packet to the first transmitted byte.
+    delay: int
+
+
+class Reply(NamedTuple):
+    ack: int | None
+    response: bytes | None
+    concatenated: bool
+
+
+class Phy:
+    """The PHY model on harness ``dut``; ``registers`` serves a register bus, if any."""
+
+    def __init__(
+        self,
+        dut: Any,
+        *,
+        physical_id: int,
+        ack_gap: int,
+        registers: RegisterServer | None,
+        poll_reads: bool = False,
+    ) -> None:
+        self.dut = dut
+        self.physical_id = physical_id
+        self.ack_gap = ack_gap
+        self.server = registers
+        #: PHY registers 0-15 (1394a base page), as a link reads them with RdReg.
+        self.registers = [0] * 16
+        self.registers[2] = 0xE2  # extended, two ports
+        self.registers[3] = 0x40  # S400
+        self.set_id()
+        self.violations: list[str] = []
+        self.requests: deque[Request] = deque()
+        self.cycles = 0
+        self._drive = -1
+        self._lreq_bits: list[int] | None = None
+        self._lreq_need = 0
+        self._rdata = 0
+        #: The register bus has no read strobe: read data follows the address.
+        self.poll_reads = poll_reads and registers is not None
+        self._polled: int | None = None
+
+    def set_id(self) -> None:
+        # Physical_ID, R (root), PS (cable power)
+        self.registers[0] = (self.physical_id << 2) | 0b11
+
+    # -- one clock cycle ----------------------------------------------------------------
+    async def step(self, on: bool = True, ctl: int = IDLE, d: int = 0) -> int:
+        """Drive (``on``, ``ctl``, ``d``) for the next edge; the link's ``mon`` word after it."""
+        word = (on << 10) | (ctl << 8) | d
+        if word != self._drive:
+            self.dut.phy.value = word
+            self._drive = word
+        await FallingEdge(self.dut.sclk)
+        self.cycles += 1
+        value = self.dut.mon.value
+        if value.is_resolvable:
+            mon = int(value.to_unsigned())
+        else:
+            # X and Z read as 0; a link that drives them is told off below.
+            mon = int("".join(c if c in "01" else "0" for c in str(value)), 2)
+            if mon >> MON_OE & 1:
+                self._violate("undriven-bits", "the link drives X or Z bits on CTL or D")
+        if on and mon >> MON_OE & 1:
+            self._violate("contention", "the link drives CTL/D while the PHY owns the interface")
+        self._lreq(mon >> MON_LREQ & 1)
+        if mon >> MON_RD & 0xF and self.server is not None:
+            self._serve(mon)
+        if self.poll_reads:
+            self._poll()
+        return mon
+
+    def _poll(self) -> None:
+        # Values change only at a new batch (the board's time) or with a write,
+        # and both forget the last address, so one read per address change is enough.
+        assert self.server is not None
+        value = self.dut.reg_addr.value
+        if not value.is_resolvable:
+            return
+        addr = value.to_unsigned()
+        if addr != self._polled:
+            self._polled = addr
+            self._put(self.server.read(addr))
+
+    def forget_read(self) -> None:
+        """Read the register again even if the address stays (it may have changed)."""
+        self._polled = None
+
+    def _violate(self, signature: str, text: str) -> None:
+        line = f"{signature}: {text}"
+        if line not in self.violations:
+            self.violations.append(line)
+
+    def _serve(self, mon: int) -> None:
+        server = self.server
+        assert server is not None
+        addr = self.dut.reg_addr.value.to_unsigned()
+        if mon >> MON_RD & 1:
+            self._put(server.read(addr))
+        elif mon >> MON_BLK_RD & 1:
+            self._put(server.block_read(addr, self.dut.reg_len.value.to_unsigned()))
+        if mon >> MON_WR & 1:
+            server.write(addr, self.dut.reg_wdata.value.to_unsigned())
+            self._polled = None
+        elif mon >> MON_BLK_WR & 1:
+            length = self.dut.reg_len.value.to_unsigned()
+            server.block_write(addr, self.dut.reg_wdata.value.to_unsigned(), length)
+            self._polled = None
+
+    def _put(self, value: int) -> None:
+        if value != self._rdata:
+            self.dut.reg_rdata.value = value
+            self._rdata = value
+
+    def _lreq(self, bit: int) -> None:
+        bits = self._lreq_bits
+        if bits is None:
+            if bit:
+                self._lreq_bits, self._lreq_need = [], 3
+            return
+        bits.append(bit)
+        if len(bits) == 3:
+            kind = bits[0] << 2 | bits[1] << 1 | bits[2]
+            if kind not in REQUEST_BITS:
+                self._violate("lreq-reserved", "a link request of reserved type 111")
+                self._lreq_bits = None
+                return
+            self._lreq_need = 3 + REQUEST_BITS[kind]
+        if len(bits) < self._lreq_need:
+            return
+        self._lreq_bits = None
+        kind = bits[0] << 2 | bits[1] << 1 | bits[2]
+        if bits[-1]:
+            self._violate("lreq-stop", f"a link request (type {kind:03b}) without its stop bit")
+            return
+        payload = 0
+        for b in bits[3:-1]:
+            payload = payload << 1 | b
+        self.requests.append(Request(kind, payload, len(bits) - 4))
+
+    @property
+    def lreq_busy(self) -> bool:
+        return self._lreq_bits is not None
+
+    # -- what the PHY sends -------------------------------------------------------------
+    async def idle(self, cycles: int) -> int:
+        mon = 0
+        for _ in range(cycles):
+            mon = await self.step()
+        return mon
+
+    async def status(self, bits: list[int]) -> None:
+        """A status transfer: S0, S1, ... two bits a cycle on D0 and D1."""
+        for k in range(0, len(bits), 2):
+            await self.step(True, STATUS, bits[k] << 7 | bits[k + 1] << 6)
+        await self.step()
+
+    async def register_status(self, address: int, *, bus_reset: bool = False) -> None:
+        value = self.registers[address]
+        head = [0, 0, int(bus_reset), 0]
+        await self.status(
+            head
+            + [address >> (3 - i) & 1 for i in range(4)]
+            + [value >> (7 - i) & 1 for i in range(8)]
+        )
+
+    async def receive(self, raw: bytes, *, interrupting: int = 0) -> None:
+        """Deliver a packet as the PHY does: data-on, speed code, bytes, then Idle.
+
+        ``interrupting``: first start a status transfer of register 0 and cut it
+        after that many cycles, as a PHY does when a packet arrives meanwhile.
+        """
+        step = self.step
+        if interrupting:
+            value = self.registers[0]
+            bits = [0] * 8 + [value >> (7 - i) & 1 for i in range(8)]
+            for k in range(0, min(2 * interrupting, 14), 2):
+                await step(True, STATUS, bits[k] << 7 | bits[k + 1] << 6)
+        await step(True, RECEIVE, 0xFF)
+        await step(True, RECEIVE, 0xFF)
+        if raw:
+            await step(True, RECEIVE, SPEED_S400)
+            for byte in raw:
+                await step(True, RECEIVE, byte)
+        await step()
+
+    async def bus_reset(self) -> None:
+        """Status with S2 and register 0, then this node's self-ID packet."""
+        await self.register_status(0, bus_reset=True)
+        self_id = (0b10 << 30) | (self.physical_id << 24) | (1 << 22) | (0x3F << 16) | (3 << 14)
+        await self.receive(self_id.to_bytes(4, "big") + (self_id ^ 0xFFFFFFFF).to_bytes(4, "big"))
+
+    async def service(self) -> list[Capture]:
+        """Answer the link's pending requests (register reads and writes, bus requests)."""
+        captures = []
+        while self.requests:
+            request = self.requests.popleft()
+            if request.kind in BUS_REQUESTS:
+                captures.append(await self.grant(0))
+            elif request.kind == 4:
+                await self.register_status(request.payload & 0xF)
+            elif request.kind == 5:
+                address, value = request.payload >> 8 & 0xF, request.payload & 0xFF
+                self.registers[address] = value & ~0x40 if address == 1 else value
+                if address == 1 and value & 0x40:  # IBR
+                    await self.bus_reset()
+            # AccelCtl: nothing to do for a PHY without arbitration acceleration.
+        return captures
+
+    # -- what the link sends ------------------------------------------------------------
+    async def grant(self, since_end: int) -> Capture:
+        """Grant the bus and capture every packet the link sends until it lets go."""
+        step = self.step
+        await step(True, GRANT, 0)
+        await step(True, IDLE, 0)
+        packets: list[bytes] = []
+        current: bytearray | None = None
+        started = False
+        hold = 0
+        first_byte: int | None = None
+        cycles = 2
+        for _ in range(OWN_LIMIT):
+            mon = await step(False)
+            cycles += 1
+            if not mon >> MON_OE & 1:
+                if started:
+                    self._violate("release", "the link let go of the interface without Idle")
+                    break
+                if cycles > GRANT_TIMEOUT:
+                    break  # the link did not take the bus it asked for
+                continue
+            ctl = mon >> MON_CTL & 3
+            started = True
+            if ctl == TRANSMIT:
+                if first_byte is None:
+                    first_byte = since_end + cycles
+                if current is None:
+                    current = bytearray()
+                current.append(mon & 0xFF)
+                hold = 0
+            elif ctl == HOLD:
+                if current is not None:
+                    packets.append(bytes(current))
+                    current = None
+                hold += 1
+                if hold == MAX_HOLD + 1:
+                    self._violate("hold", f"Hold kept longer than {MAX_HOLD} cycles")
+            elif ctl == IDLE:
+                break
+            else:
+                self._violate("ctl-reserved", "the link drove the reserved CTL value 11")
+        else:
+            self._violate("ownership", f"the link kept the bus {OWN_LIMIT} cycles")
+        if current is not None:
+            packets.append(bytes(current))
+        return Capture(packets, first_byte if first_byte is not None else -1)
+
+    async def exchange(self, raw: bytes, *, interrupting: int = 0) -> Reply:
+        """Deliver ``raw`` and return the link's ack, response and tenure."""
+        await self._service_outside()
+        if self.server is not None:
+            self.server.new_packet()
+            self.forget_read()
+        await self.receive(raw, interrupting=interrupting)
+        captures: list[Capture] = []
+        # A request that starts after the ack gap cannot bring an ack inside it:
+        # so much quiet on LREQ is silence.
+        quiet = 0
+        waited = 1  # the Idle that ended the packet
+        while quiet < self.ack_gap or self.lreq_busy:
+            if self.requests:
+                request = self.requests[0]
+                if request.kind in BUS_REQUESTS:
+                    self.requests.popleft()
+                    captures.append(await self.grant(waited))
+                    quiet = 0
+                    if self._answered(captures):
+                        break
+                    continue
+                await self.service()
+                quiet = 0
+                continue
+            mon = await self.step()
+            waited += 1
+            quiet = 0 if mon >> MON_LREQ & 1 else quiet + 1
+        await self._settle()
+        return self._reply(captures)
+
+    def _answered(self, captures: list[Capture]) -> bool:
+        packets = [p for c in captures for p in c.packets]
+        if not packets:
+            return False
+        ack = packets[0]
+        return len(ack) != 1 or ack[0] >> 4 != 0x2 or len(packets) > 1
+
+    async def _settle(self) -> None:
+        for _ in range(BUSY_LIMIT):
+            mon = await self.step()
+            if not mon >> MON_BUSY & 1 and not self.lreq_busy and not self.requests:
+                return
+            if self.requests:
+                await self._service_outside()
+        self._violate("busy", f"the link stayed busy {BUSY_LIMIT} cycles after its answer")
+
+    async def _service_outside(self) -> None:
+        # Between answers the link has nothing to send: a packet now is an ack that
+        # came after the silence was called, or a response nobody asked for.
+        stray = [p for c in await self.service() for p in c.packets]
+        if stray:
+            self._violate(
+                "unsolicited",
+                f"the link sent {len(stray)} packet(s) outside any answer (an ack too late?)",
+            )
+
+    def _reply(self, captures: list[Capture]) -> Reply:
+        if not captures or not any(c.packets for c in captures):
+            return Reply(None, None, False)
+        first = next(c for c in captures if c.packets)
+        ack_packet = first.packets[0]
+        if len(ack_packet) != 1:
+            self._violate(
+                "ack-size", f"the link's first packet is {len(ack_packet)} bytes, not an ack"
+            )
+            return Reply(None, ack_packet, False)
+        code, parity = ack_packet[0] >> 4, ack_packet[0] & 0xF
+        if parity != code ^ 0xF:
+            self._violate("ack-parity", f"ack byte {ack_packet[0]:#04x} fails its parity")
+        if first.delay > self.ack_gap:
+            self._violate(
+                "ack-gap",
+                f"ack {first.delay} cycles after the packet, beyond the gap of {self.ack_gap}",
+            )
+        if len(first.packets) > 1:
+            return Reply(code, first.packets[1], True)
+        later = [p for c in captures[captures.index(first) + 1 :] for p in c.packets]
+        return Reply(code, later[0] if later else None, False)

@@ -1,0 +1,249 @@
+"""Compile a link design behind the harness and run it in Icarus Verilog with cocotb.
+
+:class:`Simulation` is the parent's end: it builds the design (iverilog, once
+per port map and defines, in a cache directory), starts ``vvp`` with cocotb's
+VPI module as a child process running :mod:`fw1394.rtl.cocotb_node`, and
+talks to it over a loopback TCP socket, one JSON line per request. A child
+that dies or stops answering is reported as :class:`SimulationError`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from fw1394.rtl.portmap import HDL_DIR, PortMap, harness_verilog
+
+#: Seconds the simulator may take to compile, start and reset the design.
+START_TIMEOUT = 20.0
+
+
+class SimulationError(RuntimeError):
+    """The simulator is missing, failed to build, died or stopped answering."""
+
+
+def missing_tools() -> str | None:
+    """Why RTL simulation cannot run here (None: it can)."""
+    for tool in ("iverilog", "vvp"):
+        if shutil.which(tool) is None:
+            return f"{tool} (Icarus Verilog) is not installed"
+    try:
+        import cocotb  # noqa: F401
+        import cocotb_tools.config  # noqa: F401
+    except ImportError:
+        return "cocotb is not installed (pip install 'fw1394[rtl]')"
+    return None
+
+
+def cache_dir() -> Path:
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "fw1394" / "rtl"
+
+
+def build(portmap: PortMap, *, defines: tuple[str, ...] = (), waves: Path | None = None) -> Path:
+    """The compiled simulation (a vvp file) of the design behind the harness."""
+    problem = missing_tools()
+    if problem:
+        raise SimulationError(problem)
+    harness = harness_verilog(portmap)
+    sources = [str(s) for s in portmap.sources]
+    all_defines = (*portmap.defines, *defines)
+    dump = ""
+    if waves is not None:
+        dump = (
+            "`timescale 1ns/1ps\nmodule fw1394_dump;\ninitial begin\n"
+            f'    $dumpfile("{waves}");\n    $dumpvars(0, fw1394_harness);\nend\nendmodule\n'
+        )
+    key = hashlib.sha256()
+    for part in (harness, dump, *all_defines):
+        key.update(part.encode() + b"\0")
+    for source in portmap.sources:
+        key.update(source.read_bytes())
+    for include in sorted(HDL_DIR.glob("*.vh")):
+        key.update(include.read_bytes())
+    directory = cache_dir() / key.hexdigest()[:20]
+    target = directory / "sim.vvp"
+    if target.exists():
+        return target
+    directory.mkdir(parents=True, exist_ok=True)
+    (directory / "fw1394_harness.v").write_text(harness)
+    extra = [str(directory / "fw1394_harness.v")]
+    roots = ["-s", "fw1394_harness"]
+    if dump:
+        (directory / "fw1394_dump.v").write_text(dump)
+        extra.append(str(directory / "fw1394_dump.v"))
+        roots += ["-s", "fw1394_dump"]
+    includes = sorted({str(HDL_DIR), *(str(s.parent) for s in portmap.sources)})
+    command = [
+        "iverilog",
+        "-g2012",
+        "-o",
+        str(directory / "partial.vvp"),
+        *roots,
+        *(f"-I{path}" for path in includes),
+        *(f"-D{name}" for name in all_defines),
+        *sources,
+        *extra,
+    ]
+    result = subprocess.run(command, capture_output=True, text=True)
+    if result.returncode != 0:
+        lines = (result.stderr or result.stdout).strip().splitlines()
+        raise SimulationError(f"iverilog failed: {lines[0] if lines else 'no output'}")
+    (directory / "partial.vvp").replace(target)
+    return target
+
+
+def _cocotb_environment(config: dict[str, Any]) -> dict[str, str]:
+    import cocotb_tools.config
+    import find_libpython
+
+    env = dict(os.environ)
+    libpython = find_libpython.find_libpython()
+    if libpython is None:
+        raise SimulationError("cocotb cannot find libpython for this interpreter")
+    env.update(
+        {
+            "COCOTB_TEST_MODULES": "fw1394.rtl.cocotb_node",
+            "COCOTB_TOPLEVEL": "fw1394_harness",
+            "TOPLEVEL_LANG": "verilog",
+            "PYGPI_PYTHON_BIN": sys.executable,
+            "GPI_USERS": f"{libpython};{cocotb_tools.config.pygpi_entry_point()}",
+            "PYTHONPATH": os.pathsep.join(p for p in sys.path if p),
+            "COCOTB_RESULTS_FILE": os.devnull,
+            "COCOTB_LOG_LEVEL": "WARNING",
+            "FW1394_RTL_CONFIG": json.dumps(config),
+        }
+    )
+    return env
+
+
+class Simulation:
+    """One running simulation of ``portmap``'s design with the PHY model on its pins."""
+
+    def __init__(
+        self,
+        portmap: PortMap,
+        *,
+        physical_id: int,
+        board_id: int = 0,
+        defines: tuple[str, ...] = (),
+        board_defects: tuple[str, ...] = (),
+        waves: Path | None = None,
+        timeout: float = 30.0,
+    ) -> None:
+        import cocotb_tools.config
+
+        self.portmap = portmap
+        self.timeout = timeout
+        fst = waves is not None and waves.suffix == ".fst"
+        vvp = build(portmap, defines=defines, waves=waves)
+        listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        listener.bind(("127.0.0.1", 0))
+        listener.listen(1)
+        config = {
+            "port": listener.getsockname()[1],
+            "portmap": str(portmap.path),
+            "physical_id": physical_id,
+            "board_id": board_id,
+            "defects": list(board_defects),
+        }
+        # The simulator's own output, kept for the error message if it dies.
+        self._log = tempfile.TemporaryFile()  # noqa: SIM115
+        command = ["vvp", "-m", str(cocotb_tools.config.lib_entry("vpi", "icarus"))]
+        # vvp's extended arguments: -none turns dumping off, -fst picks FST over VCD.
+        command += [str(vvp)] + (["-none"] if waves is None else ["-fst"] if fst else [])
+        self.process = subprocess.Popen(
+            command,
+            env=_cocotb_environment(config),
+            stdin=subprocess.DEVNULL,
+            stdout=self._log,
+            stderr=subprocess.STDOUT,
+            cwd=str(vvp.parent),
+        )
+        listener.settimeout(START_TIMEOUT)
+        try:
+            self.sock, _ = listener.accept()
+        except TimeoutError:
+            tail = self.log_tail()
+            self.close()
+            raise SimulationError(f"the simulator did not start: {tail}") from None
+        finally:
+            listener.close()
+        self.stream = self.sock.makefile("rwb")
+        hello = self._receive(START_TIMEOUT)
+        #: The design acknowledged a valid quadlet read after reset.
+        self.acked: bool = hello["acked"]
+
+    def _receive(self, timeout: float) -> dict[str, Any]:
+        self.sock.settimeout(timeout)
+        try:
+            line = self.stream.readline()
+        except TimeoutError:
+            raise SimulationError(f"the simulator did not answer within {timeout} s") from None
+        except OSError as error:
+            raise SimulationError(f"the simulator's socket failed: {error}") from None
+        if not line:
+            self.process.wait(5)
+            raise SimulationError(
+                f"the simulator exited ({self.process.returncode}): {self.log_tail()}"
+            )
+        message: dict[str, Any] = json.loads(line)
+        return message
+
+    def request(self, message: dict[str, Any]) -> dict[str, Any]:
+        try:
+            self.stream.write(json.dumps(message).encode() + b"\n")
+            self.stream.flush()
+        except OSError as error:
+            raise SimulationError(f"the simulator is gone: {error}") from None
+        return self._receive(self.timeout)
+
+    def exchange(
+        self, packets: list[bytes], now: float, *, interrupting: int = 0
+    ) -> dict[str, Any]:
+        """Deliver ``packets``; ``interrupting``: each cuts a status transfer after N cycles."""
+        message = {"op": "exchange", "now": now, "packets": [p.hex() for p in packets]}
+        if interrupting:
+            message["interrupting"] = interrupting
+        return self.request(message)
+
+    def restart(self) -> bool:
+        """Reset the design and the board behind it; whether it acks a valid read."""
+        acked: bool = self.request({"op": "restart"})["acked"]
+        return acked
+
+    def bus_reset(self, physical_id: int) -> None:
+        """A bus reset that gives the node ``physical_id`` (the PHY tells the link)."""
+        self.request({"op": "bus_reset", "physical_id": physical_id})
+
+    def log_tail(self) -> str:
+        self._log.seek(0)
+        text = self._log.read().decode(errors="replace").strip().splitlines()
+        return text[-1] if text else "no output"
+
+    def alive(self) -> bool:
+        return self.process.poll() is None
+
+    def close(self) -> None:
+        try:
+            if hasattr(self, "stream"):
+                self.stream.write(b'{"op": "close"}\n')
+                self.stream.flush()
+        except OSError:
+            pass
+        try:
+            self.process.wait(10)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait()
+        if hasattr(self, "sock"):
+            self.sock.close()
+        self._log.close()
