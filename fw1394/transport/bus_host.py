@@ -104,6 +104,7 @@ class BusHost:
         self._timers_due = 0.0
         #: When the host last served the bus (its timers run only inside its calls).
         self._served_at = time.monotonic()
+        self._paused_after = self.station.membership.timing.heartbeat
         self.resets: list[BusReset] = []
 
     # -- context manager ----------------------------------------------------------------
@@ -264,6 +265,10 @@ class BusHost:
             now = self.link.turn()
         except BusRefusedError as error:
             raise self._refused(error) from None
+        if now - self._served_at > self._paused_after:
+            # Stopped inside a call: the answers that queued up meanwhile are taken
+            # before any engine timer can call them missing.
+            self._come_back(now)
         self._served_at = now
         if now >= self._timers_due:
             # Engine timeouts are tens of milliseconds and up: looking at them once a
