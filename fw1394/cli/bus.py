@@ -240,7 +240,7 @@ def bus_reset(args: argparse.Namespace) -> int:
     before = watch(config, args.timeout)
     if before is None:
         raise CliError(f"bus {config.name!r}: no coordinator heard in {args.timeout} s")
-    request_reset(config)
+    request_reset(config, before.generation)
     after = watch(config, args.timeout, lambda view: view.generation > before.generation)
     if after is None:
         raise CliError(f"bus {config.name!r}: no reset seen within {args.timeout} s")

@@ -39,6 +39,10 @@ from fw1394.transport.wire import (
 )
 
 SortKey = tuple[bool, int, int]
+#: Requests that concern the generation they were sent in: one from an earlier
+#: generation is out of date (and on a keyed bus, where nobody can forge a frame
+#: of this generation, the only way to replay one).
+_OF_THIS_GENERATION = frozenset({FrameKind.reset_request, FrameKind.leave})
 
 
 @dataclass(frozen=True, slots=True)
@@ -182,6 +186,8 @@ class Membership:
             if header.generation == self.generation and is_self_id(payload):
                 self.self_ids[header.sender_phy] = payload
             return
+        if kind in _OF_THIS_GENERATION and header.generation < self.generation:
+            return  # the reset since has done what it asked for; or a replay
         if self.role is Role.coordinator:
             self._boss.last_heard[header.sender] = now
         if kind == FrameKind.beacon:
