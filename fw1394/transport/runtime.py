@@ -194,6 +194,32 @@ def stop_bus(directory: Path, grace: float = 5.0) -> list[int]:
     return leftovers
 
 
+def stop_members(pids: list[int], grace: float = 5.0) -> tuple[list[int], list[int], list[int]]:
+    """Stop member processes that no supervisor started (``node run`` by hand).
+
+    SIGTERM (a node leaves the bus cleanly), then SIGKILL after ``grace``; only
+    processes of this package. The pids stopped, those that needed SIGKILL, and
+    those that could not be stopped (another user's, say).
+    """
+    ours = [pid for pid in pids if is_ours(pid)]
+    stopped, left = [], []
+    for pid in ours:
+        try:
+            os.kill(pid, signal.SIGTERM)
+            stopped.append(pid)
+        except OSError:
+            left.append(pid)
+    _wait_gone(stopped, grace)
+    killed = [pid for pid in stopped if is_ours(pid)]
+    for pid in killed:
+        with contextlib.suppress(OSError):
+            os.kill(pid, signal.SIGKILL)
+    _wait_gone(killed, grace)
+    left += [pid for pid in killed if is_ours(pid)]
+    left += [pid for pid in pids if pid not in ours and process_alive(pid)]
+    return [pid for pid in stopped if pid not in left], killed, left
+
+
 def _wait_gone(pids: list[int], seconds: float) -> None:
     limit = time.monotonic() + seconds
     while any(process_alive(pid) for pid in pids) and time.monotonic() < limit:
