@@ -109,10 +109,21 @@ def print_members(rows: list[dict[str, Any]], as_json: bool) -> None:
     if as_json:
         print_json_lines(rows)
         return
-    table = [("PHY", "ROLE", "BOARD", "PID", "ADDRESS")]
+    counted = any("dropped" in row for row in rows)
+    table = [("PHY", "ROLE", "BOARD", "PID", "ADDRESS") + (("DROPPED",) if counted else ())]
     for row in rows:
         board = "-" if row["board_id"] is None else str(row["board_id"])
-        table.append((str(row["phy_id"]), row["role"], board, str(row["pid"]), str(row["address"])))
+        line: tuple[str, ...] = (
+            str(row["phy_id"]),
+            row["role"],
+            board,
+            str(row["pid"]),
+            str(row["address"]),
+        )
+        if counted:
+            dropped = [row.get(k) for k in ("dropped", "replayed")]
+            line += ("-" if None in dropped else str(sum(d or 0 for d in dropped)),)
+        table.append(line)
     print_table(table, indent="")
 
 
