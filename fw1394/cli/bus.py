@@ -281,10 +281,8 @@ def bus_status(args: argparse.Namespace) -> int:
         row["replayed"] = None if record is None or record.replayed is None else record.replayed
     security = "keyed" if keyed else "insecure"
     if args.json:
-        print_json_lines(
-            [{"bus": config.name, "generation": view.generation, "security": security}]
-        )
-        print_json_lines(rows)
+        # One line per member, as ever; the bus's security rides on every line.
+        print_json_lines([{**row, "security": security} for row in rows])
     else:
         dropped = sum(row["dropped"] or 0 for row in rows)
         replayed = sum(row["replayed"] or 0 for row in rows)
