@@ -78,6 +78,7 @@ def _checked(make: Callable[[argparse.Namespace], T], args: argparse.Namespace) 
 def host_port(args: argparse.Namespace) -> BusPort:
     """A host port on the bus the options name, waiting ``--timeout`` per transaction."""
     from fw1394.transport.bus_port import BusPort
+    from fw1394.transport.seal import BusKeyError
 
     config = bus_config(args)
     try:
@@ -88,7 +89,7 @@ def host_port(args: argparse.Namespace) -> BusPort:
             timing=timing(args),
             faults=faults(args),
         )
-    except OSError as error:
+    except (OSError, BusKeyError) as error:
         raise CliError(f"cannot join bus {config.name!r}: {error}") from None
 
 
@@ -257,16 +258,21 @@ def bus_up(args: argparse.Namespace) -> int:
     return 0
 
 
+def bus_key_of(config: BusConfig) -> bytes | None:
+    """The key members of ``config``'s bus use here; a bad key file is a CLI error."""
+    from fw1394.transport.seal import BusKeyError, key_for
+
+    try:
+        return key_for(config)
+    except (BusKeyError, OSError) as error:
+        raise CliError(str(error)) from None
+
+
 def bus_status(args: argparse.Namespace) -> int:
     from fw1394.transport.observe import watch
     from fw1394.transport.runtime import bus_dir, read_members, read_nodes, supervisor_alive
-    from fw1394.transport.seal import BusKeyError, key_for
-
     config = bus_config(args)
-    try:
-        keyed = key_for(config) is not None
-    except (BusKeyError, OSError) as error:
-        raise CliError(str(error)) from None
+    keyed = bus_key_of(config) is not None
     view = watch(config, args.timeout)
     directory = bus_dir(config.name)
     started = read_nodes(directory) if supervisor_alive(directory) else []
@@ -304,6 +310,7 @@ def bus_reset(args: argparse.Namespace) -> int:
     from fw1394.transport.observe import request_reset, watch
 
     config = bus_config(args)
+    bus_key_of(config)
     before = watch(config, args.timeout)
     if before is None:
         raise CliError(f"bus {config.name!r}: no coordinator heard in {args.timeout} s")
@@ -327,6 +334,7 @@ def bus_down(args: argparse.Namespace) -> int:
     )
 
     config = bus_config(args)
+    bus_key_of(config)
     directory = bus_dir(config.name)
     # Nodes joined by hand are members too: the runtime directory lists those of this
     # host, the coordinator's beacon every member (a wedged bus may send none).
@@ -363,13 +371,8 @@ def bus_down(args: argparse.Namespace) -> int:
 
 
 def bus_key(args: argparse.Namespace) -> int:
-    from fw1394.transport.seal import BusKeyError, key_for
-
     config = bus_config(args)
-    try:
-        key = key_for(config)
-    except (BusKeyError, OSError) as error:
-        raise CliError(str(error)) from None
+    key = bus_key_of(config)
     if key is None:
         raise CliError(f"bus {config.name!r} has no key here (not up, or up with --insecure)")
     if args.json:
