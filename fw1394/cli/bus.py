@@ -271,6 +271,7 @@ def bus_key_of(config: BusConfig) -> bytes | None:
 def bus_status(args: argparse.Namespace) -> int:
     from fw1394.transport.observe import watch
     from fw1394.transport.runtime import bus_dir, read_members, read_nodes, supervisor_alive
+
     config = bus_config(args)
     keyed = bus_key_of(config) is not None
     view = watch(config, args.timeout)
