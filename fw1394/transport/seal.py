@@ -51,10 +51,19 @@ def new_key() -> bytes:
 
 
 def write_key(path: Path, key: bytes) -> None:
-    """Write ``key`` (hex) to a new file only its owner can read."""
-    descriptor = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
-    with os.fdopen(descriptor, "w") as out:
-        os.fchmod(out.fileno(), 0o600)  # an existing file keeps its mode on O_CREAT
+    """Write ``key`` (hex) to a new file only its owner can read.
+
+    The directories above must be this user's and not writable by others (the
+    runtime root under /tmp has a name anyone can guess and create first); the
+    file is made anew, never through a link someone left there.
+    """
+    for directory in (path.parent, path.parent.parent):
+        info = directory.lstat()
+        if info.st_uid != os.getuid() or info.st_mode & 0o022:
+            raise BusKeyError(f"{directory}: not a private directory of this user")
+    path.unlink(missing_ok=True)
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW
+    with os.fdopen(os.open(path, flags, 0o600), "w") as out:
         out.write(key.hex() + "\n")
 
 
@@ -70,9 +79,9 @@ def parse_key(text: str, where: str) -> bytes:
 
 def read_key(path: Path) -> bytes:
     """The key in ``path``; refused if others than its owner may read it."""
-    mode = path.stat().st_mode
-    if mode & 0o077:
-        raise BusKeyError(f"{path}: a bus key must be readable by its owner only (chmod 600)")
+    info = path.stat()
+    if info.st_mode & 0o077 or info.st_uid != os.getuid():
+        raise BusKeyError(f"{path}: a bus key must be this user's, readable by them only (600)")
     return parse_key(path.read_text(), str(path))
 
 

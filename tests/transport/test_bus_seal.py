@@ -104,7 +104,7 @@ def test_key_file_is_private_and_found(tmp_path: Path, monkeypatch: pytest.Monke
     assert key_for(BusConfig("anything")) == bytes(16)
     os.chmod(path, 0o644)
     monkeypatch.delenv(KEY_ENV)
-    with pytest.raises(BusKeyError, match="owner only"):
+    with pytest.raises(BusKeyError, match="readable by them only"):
         key_for(BusConfig("anything"))
     monkeypatch.setenv(KEY_ENV, "not hex")
     with pytest.raises(BusKeyError, match="hex"):
