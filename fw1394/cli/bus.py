@@ -346,10 +346,8 @@ def bus_down(args: argparse.Namespace) -> int:
     if not supervised and not recorded and not beaconed:
         raise CliError(f"no bus {config.name!r} is up here")
     killed = stop_bus(directory)
-    me = MemberInfo(0, 0, address=config.interface, pid_namespace=pid_namespace())
-    local = [
-        m.pid for m in beaconed if m.address == me.address and m.pid_namespace == me.pid_namespace
-    ]
+    this_host = (config.interface, pid_namespace())
+    local = [m.pid for m in beaconed if (m.address, m.pid_namespace) == this_host]
     elsewhere = [m for m in beaconed if m.pid not in local]
     stopped, killed_too, left = stop_members(sorted(set(recorded) | set(local)))
     killed += killed_too
