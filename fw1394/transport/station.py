@@ -16,7 +16,7 @@ import re
 import secrets
 import struct
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from itertools import count
 
 from fw1394.packets import Speed
@@ -203,18 +203,17 @@ class Station:
         return sequence
 
     # -- receiving --------------------------------------------------------------------
-    def catch_up(self) -> list[tuple[FrameHeader, bytes]]:
+    def catch_up(self) -> Iterator[tuple[FrameHeader, bytes]]:
         """Every frame queued while the owner was away, taken without waiting.
 
-        Bus management takes effect in arrival order, as in :meth:`receive`; the
-        data frames are returned in that order.
+        Each data frame is handed over before the frames behind it are taken, so
+        that a bus reset queued after the answers to a transaction takes effect
+        only after the owner has taken those answers, as in :meth:`receive`.
         """
-        frames = []
         while (raw := self.medium.receive_queued()) is not None:
             frame = self._take(raw)
             if frame is not None:
-                frames.append(frame)
-        return frames
+                yield frame
 
     def receive(self) -> tuple[FrameHeader, bytes] | None:
         """The next data frame (async packet, ack, PHY packet), or None on a quiet poll."""

@@ -15,6 +15,7 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
 from bus_support import bus_name, wait_until_gone
 
 from fw1394.transport.config import BusConfig
@@ -22,16 +23,17 @@ from fw1394.transport.launch import LaunchedBus
 
 ARGS = ("--heartbeat", "0.1", "--lease", "1.0")
 
-# A host in its own process, doing one write-then-read-back after another and
+# A host in its own process, keeping ``depth`` reads of known values outstanding and
 # printing every outcome and every bus reset it took part in as JSON lines.
 HOST_PROGRAM = r"""
 import json, sys, time
+from collections import deque
 from fw1394.engine import ReadCompleted, TransactionFailed
 from fw1394.transport.bus_host import BusHost
 from fw1394.transport.config import BusConfig
 from fw1394.transport.membership import Timing
 
-name, seconds = sys.argv[1], float(sys.argv[2])
+name, seconds, depth = sys.argv[1], float(sys.argv[2]), int(sys.argv[3])
 host = BusHost(BusConfig(name), timing=Timing(heartbeat=0.1, lease=1.0),
                ack_timeout=0.3, split_timeout=0.3)
 seen = 0
@@ -40,39 +42,48 @@ def report(**fields):
 host.wait_ready()
 nodes = [phy for phy, _ in host.nodes()]
 report(kind="ready", phy=host.phy_id, nodes=nodes)
-limit, value = time.monotonic() + seconds, 0
-while time.monotonic() < limit:
-    value += 1
-    node = nodes[value % len(nodes)]
-    written = host.wait(host.start_write_quadlet(node, 0x40, value))
-    event = host.wait(host.start_read_quadlet(node, 0x40))
+for node in nodes:  # quadlet q of node n holds n * 1000 + q
+    for quadlet in range(64):
+        host.wait(host.start_write_quadlet(node, 4 * quadlet, node * 1000 + quadlet))
+limit, count, pending = time.monotonic() + seconds, 0, deque()
+while time.monotonic() < limit or pending:
+    while len(pending) < depth and time.monotonic() < limit:
+        count += 1
+        node, quadlet = nodes[count % len(nodes)], count % 64
+        pending.append((host.start_read_quadlet(node, 4 * quadlet), node * 1000 + quadlet))
+    tid, expected = pending.popleft()
+    event = host.wait(tid)
     for change in host.resets[seen:]:
         report(kind="reset", phy=change.phy_id, generation=change.generation)
     seen = len(host.resets)
-    failed = [str(e.reason) for e in (written, event) if isinstance(e, TransactionFailed)]
+    failed = [str(event.reason)] if isinstance(event, TransactionFailed) else []
     got = int.from_bytes(event.data, "big") if isinstance(event, ReadCompleted) else None
-    report(kind="tx", at=time.monotonic(), failed=failed, ok=got == value)
+    report(kind="tx", at=time.monotonic(), failed=failed, ok=got == expected)
 host.close()
 report(kind="done")
 """
 
 
-def test_a_stopped_host_comes_back_without_failures_or_taking_over(tmp_path: Path) -> None:
+@pytest.mark.parametrize("depth", [1, 16])
+def test_a_stopped_host_comes_back_without_failures_or_taking_over(
+    tmp_path: Path, depth: int
+) -> None:
     config = BusConfig(bus_name("pause"))
     with LaunchedBus(config, 2, root=tmp_path, node_arguments=ARGS) as bus:
         bus.wait_members()
-        host = subprocess.Popen(
-            [sys.executable, "-c", HOST_PROGRAM, config.name, "7"],
-            stdout=subprocess.PIPE,
-            text=True,
-        )
+        log = tmp_path / "host.jsonl"
+        with open(log, "w") as out:  # a file never blocks the host as a full pipe would
+            host = subprocess.Popen(
+                [sys.executable, "-c", HOST_PROGRAM, config.name, "7", str(depth)], stdout=out
+            )
         try:
             time.sleep(2.0)
             os.kill(host.pid, signal.SIGSTOP)
             time.sleep(3.0)  # three leases: the bus drops the host meanwhile
             resumed = time.monotonic()
             os.kill(host.pid, signal.SIGCONT)
-            output, _ = host.communicate(timeout=30)
+            host.wait(30)
+            output = log.read_text()
         finally:
             if host.poll() is None:
                 host.kill()
