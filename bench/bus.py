@@ -3,6 +3,7 @@
     python bench/bus.py            # full run (about a minute on two cores)
     python bench/bus.py --quick    # fewer samples and bus sizes
     python bench/bus.py --json     # one JSON object instead of the report
+    python bench/bus.py --mac      # what the keyed MAC costs per frame and per read
 
 Measures, between this process (the host) and node processes on loopback:
 quadlet read and write round trips (p50, p99), 512-quadlet block reads
@@ -356,6 +357,70 @@ def run(quick: bool) -> dict[str, Any]:
     return results
 
 
+def mac_cost(quick: bool) -> dict[str, Any]:
+    """The keyed bus's price: sealing and verifying one frame, and a quadlet read on a
+    keyed and an insecure bus of one node each, measured in alternating rounds."""
+    import tempfile
+    from pathlib import Path
+
+    from fw1394.transport.launch import LaunchedBus
+    from fw1394.transport.seal import Sealer, Verifier, new_key
+
+    key = new_key()
+    header = FrameHeader(FrameKind.async_packet, 1, 2, 3, 1, 0).pack()
+    read = encode_packet(QuadletReadRequest(destination_id=0xFFC0, tlabel=1, offset=0))
+    per_frame: dict[str, float] = {}
+    for label, frame in (
+        ("quadlet_read_frame", header + read),
+        ("block_2k_frame", header + bytes(BLOCK)),
+    ):
+        sealer, verifier = Sealer(key), Verifier(key)
+        count = 20000 if quick else 100000
+        sealed = [sealer.seal(frame) for _ in range(count)]
+        start = time.perf_counter()
+        for _ in range(count):
+            sealer.seal(frame)
+        seal = (time.perf_counter() - start) / count
+        start = time.perf_counter()
+        for raw in sealed:
+            verifier.open(raw)
+        check = (time.perf_counter() - start) / count
+        per_frame[label + "_seal_us"] = round(seal * 1e6, 2)
+        per_frame[label + "_verify_us"] = round(check * 1e6, 2)
+    rounds, per_round = (6, 500) if quick else (20, 1000)
+    node_args = ("--heartbeat", "0.2", "--lease", "3.0")
+    samples: dict[str, list[float]] = {"keyed": [], "insecure": []}
+    with tempfile.TemporaryDirectory() as root:
+        buses = {
+            mode: LaunchedBus(
+                BusConfig(f"benchmac{os.getpid()}{mode[0]}"),
+                1,
+                root=Path(root),
+                node_arguments=node_args,
+                key=key if mode == "keyed" else None,
+            )
+            for mode in samples
+        }
+        ports: dict[str, BusPort] = {}
+        try:
+            for mode, bus in buses.items():
+                bus.start()
+                ports[mode] = BusPort(bus.member_config, timing=TIMING)
+                wait_for_nodes(ports[mode], 1)
+                timed(lambda port=ports[mode]: port.read_quadlet(0, 0), 300)
+            for _ in range(rounds):  # interleaved: both see the same machine
+                for mode, port in ports.items():
+                    samples[mode] += timed(lambda port=port: port.read_quadlet(0, 0), per_round)
+        finally:
+            for port in ports.values():
+                port.close()
+            for bus in buses.values():
+                bus.stop()
+    reads = {mode: percentiles(values) for mode, values in samples.items()}
+    ratio = reads["keyed"]["p50_us"] / reads["insecure"]["p50_us"]
+    return {"per_frame": per_frame, "quadlet_read": reads, "keyed_vs_insecure_p50": round(ratio, 3)}
+
+
 def report(results: dict[str, Any]) -> None:
     raw = results["raw_udp"]["p50_us"]
     read = results["quadlet_read"]["p50_us"]
@@ -398,7 +463,15 @@ def main() -> int:
         action="store_true",
         help="compare transports (unicast, hub relay, multicast with and without filter)",
     )
+    parser.add_argument(
+        "--mac",
+        action="store_true",
+        help="cost of the keyed MAC: per frame, and quadlet reads keyed vs insecure",
+    )
     args = parser.parse_args()
+    if args.mac:
+        print(json.dumps(mac_cost(args.quick), indent=1))
+        return 0
     if args.mechanisms:
         print(json.dumps(mechanisms(2000 if args.quick else 5000), indent=1))
         return 0

@@ -22,6 +22,7 @@ from fw1394.node.description import (
 from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig
 from fw1394.transport.membership import Timing
+from fw1394.transport.procs import pid_namespace
 from fw1394.transport.wire import MAX_MEMBERS, MemberInfo
 
 if TYPE_CHECKING:
@@ -38,7 +39,14 @@ examples:
   fw1394 bus up --nodes 1 --board rtl:thesis   the thesis link RTL in simulation (docs/rtl.md)
   fw1394 bus status --name arm
   fw1394 bus reset                        ask the coordinator for a bus reset
+  fw1394 bus key --name arm               the bus key, for members on other hosts:
+      FW1394_BUS_KEY=$(fw1394 bus key --name arm) fw1394 node run --name arm ...
   fw1394 bus down --name arm              stop every process of bus "arm"
+
+A bus is keyed unless started with --insecure: only processes with its key
+(this user's runtime directory, FW1394_BUS_KEY or FW1394_BUS_KEY_FILE) can
+speak on it; frames without a valid MAC are dropped and counted (bus status).
+Nodes that die are restarted with back-off unless --no-restart.
 """
 NODE_EXAMPLES = """\
 examples:
@@ -71,6 +79,7 @@ def _checked(make: Callable[[argparse.Namespace], T], args: argparse.Namespace) 
 def host_port(args: argparse.Namespace) -> BusPort:
     """A host port on the bus the options name, waiting ``--timeout`` per transaction."""
     from fw1394.transport.bus_port import BusPort
+    from fw1394.transport.seal import BusKeyError
 
     config = bus_config(args)
     try:
@@ -81,7 +90,7 @@ def host_port(args: argparse.Namespace) -> BusPort:
             timing=timing(args),
             faults=faults(args),
         )
-    except OSError as error:
+    except (OSError, BusKeyError) as error:
         raise CliError(f"cannot join bus {config.name!r}: {error}") from None
 
 
@@ -102,10 +111,21 @@ def print_members(rows: list[dict[str, Any]], as_json: bool) -> None:
     if as_json:
         print_json_lines(rows)
         return
-    table = [("PHY", "ROLE", "BOARD", "PID", "ADDRESS")]
+    counted = any("dropped" in row for row in rows)
+    table = [("PHY", "ROLE", "BOARD", "PID", "ADDRESS") + (("DROPPED",) if counted else ())]
     for row in rows:
         board = "-" if row["board_id"] is None else str(row["board_id"])
-        table.append((str(row["phy_id"]), row["role"], board, str(row["pid"]), str(row["address"])))
+        line: tuple[str, ...] = (
+            str(row["phy_id"]),
+            row["role"],
+            board,
+            str(row["pid"]),
+            str(row["address"]),
+        )
+        if counted:
+            dropped = [row.get(k) for k in ("dropped", "replayed")]
+            line += ("-" if None in dropped else str(sum(d or 0 for d in dropped)),)
+        table.append(line)
     print_table(table, indent="")
 
 
@@ -132,17 +152,28 @@ def register(subparsers: Any) -> None:
     add_ethernet_options(up)
     add_defect_option(up)  # planted bugs for the fuzzer, on every node
     up.add_argument("--timeout", type=float, default=60.0, help="seconds to wait for the nodes")
+    up.add_argument(
+        "--insecure",
+        action="store_true",
+        help="no bus key: any local process can send frames (for comparisons)",
+    )
+    up.add_argument(
+        "--no-restart",
+        action="store_true",
+        help="leave a node process that dies down (default: restart it, with back-off)",
+    )
     up.add_argument("--json", action="store_true", help="JSON lines instead of a table")
     up.set_defaults(handler=_bus_handler("up"))
     for action, text in (
-        ("status", "show the members of a running bus"),
+        ("status", "show the members of a running bus and the frames they dropped"),
         ("reset", "ask for a bus reset"),
-        ("down", "stop every process of a bus"),
+        ("down", "stop every process of a bus, nodes joined by hand included"),
+        ("key", "print the bus key (hex) for members on other hosts"),
     ):
         sub = actions.add_parser(action, help=text)
         add_bus_options(sub)
-        if action == "status":
-            sub.add_argument("--json", action="store_true", help="JSON lines instead of a table")
+        if action in ("status", "key"):
+            sub.add_argument("--json", action="store_true", help="JSON instead of text")
         sub.add_argument("--timeout", type=float, default=2.0, help="seconds to listen")
         sub.set_defaults(handler=_bus_handler(action))
 
@@ -164,7 +195,13 @@ def register(subparsers: Any) -> None:
 
 
 def _bus_handler(action: str) -> Any:
-    handlers = {"up": bus_up, "status": bus_status, "reset": bus_reset, "down": bus_down}
+    handlers = {
+        "up": bus_up,
+        "status": bus_status,
+        "reset": bus_reset,
+        "down": bus_down,
+        "key": bus_key,
+    }
     return handlers[action]
 
 
@@ -194,9 +231,18 @@ def bus_up(args: argparse.Namespace) -> int:
     node_arguments += defect_arguments(args)  # planted bugs for the fuzzer
     timing(args)
     faults(args)
+    from fw1394.transport.seal import new_key
+
     log = prepare(config.name) / "bus.log"
     bus = LaunchedBus(
-        config, args.nodes, board=args.board, attached=False, node_arguments=node_arguments, log=log
+        config,
+        args.nodes,
+        board=args.board,
+        attached=False,
+        node_arguments=node_arguments,
+        log=log,
+        key=None if args.insecure else new_key(),
+        restart=not args.no_restart,
     )
     try:
         bus.start(timeout=args.timeout)
@@ -213,20 +259,48 @@ def bus_up(args: argparse.Namespace) -> int:
     return 0
 
 
+def bus_key_of(config: BusConfig) -> bytes | None:
+    """The key members of ``config``'s bus use here; a bad key file is a CLI error."""
+    from fw1394.transport.seal import BusKeyError, key_for
+
+    try:
+        return key_for(config)
+    except (BusKeyError, OSError) as error:
+        raise CliError(str(error)) from None
+
+
 def bus_status(args: argparse.Namespace) -> int:
     from fw1394.transport.observe import watch
-    from fw1394.transport.runtime import bus_dir, read_nodes, supervisor_alive
+    from fw1394.transport.runtime import bus_dir, read_members, read_nodes, supervisor_alive
 
     config = bus_config(args)
+    keyed = bus_key_of(config) is not None
     view = watch(config, args.timeout)
     directory = bus_dir(config.name)
     started = read_nodes(directory) if supervisor_alive(directory) else []
     if view is None:
         where = f"{len(started)} node processes started here, " if started else ""
         raise CliError(f"bus {config.name!r}: {where}no coordinator heard in {args.timeout} s")
-    if not args.json:
-        print(f"bus {config.name!r}: generation {view.generation}, {len(view.members)} members")
-    print_members(member_rows(view.members), args.json)
+    members = {m.pid: m for m in read_members(directory)}
+    rows = member_rows(view.members)
+    for row in rows:
+        record = members.get(row["pid"])
+        row["dropped"] = None if record is None or record.forged is None else record.forged
+        row["replayed"] = None if record is None or record.replayed is None else record.replayed
+    security = "keyed" if keyed else "insecure"
+    if args.json:
+        # One line per member, as ever; the bus's security rides on every line.
+        print_json_lines([{**row, "security": security} for row in rows])
+    else:
+        dropped = sum(row["dropped"] or 0 for row in rows)
+        replayed = sum(row["replayed"] or 0 for row in rows)
+        counts = f", {dropped} forged and {replayed} replayed frames dropped" if keyed else ""
+        note = "" if keyed else " (INSECURE: any local process can send frames)"
+        print(
+            f"bus {config.name!r}: generation {view.generation}, {len(view.members)} members, "
+            f"{security}{note}{counts}"
+        )
+        print_members(rows, False)
     live = {m.pid for m in view.members}
     missing = [n for n in started if n.pid not in live]
     for node in missing:
@@ -238,10 +312,11 @@ def bus_reset(args: argparse.Namespace) -> int:
     from fw1394.transport.observe import request_reset, watch
 
     config = bus_config(args)
+    bus_key_of(config)
     before = watch(config, args.timeout)
     if before is None:
         raise CliError(f"bus {config.name!r}: no coordinator heard in {args.timeout} s")
-    request_reset(config)
+    request_reset(config, before.generation)
     after = watch(config, args.timeout, lambda view: view.generation > before.generation)
     if after is None:
         raise CliError(f"bus {config.name!r}: no reset seen within {args.timeout} s")
@@ -250,16 +325,60 @@ def bus_reset(args: argparse.Namespace) -> int:
 
 
 def bus_down(args: argparse.Namespace) -> int:
-    from fw1394.transport.runtime import bus_dir, read_nodes, stop_bus, supervisor_alive
+    from fw1394.transport.observe import watch
+    from fw1394.transport.runtime import (
+        bus_dir,
+        read_members,
+        read_nodes,
+        stop_bus,
+        stop_members,
+        supervisor_alive,
+    )
 
     config = bus_config(args)
+    bus_key_of(config)
     directory = bus_dir(config.name)
-    if supervisor_alive(directory) is None and not read_nodes(directory):
+    # Nodes joined by hand are members too: the runtime directory lists those of this
+    # host, the coordinator's beacon every member (a wedged bus may send none).
+    recorded = [m.pid for m in read_members(directory) if not m.host]
+    view = watch(config, min(args.timeout, 0.5))
+    beaconed = [] if view is None else [m for m in view.members if not m.host]
+    supervised = supervisor_alive(directory) is not None or read_nodes(directory)
+    if not supervised and not recorded and not beaconed:
         raise CliError(f"no bus {config.name!r} is up here")
     killed = stop_bus(directory)
+    this_host = (config.interface, pid_namespace())
+    local = [m.pid for m in beaconed if (m.address, m.pid_namespace) == this_host]
+    elsewhere = [m for m in beaconed if m.pid not in local]
+    stopped, killed_too, left = stop_members(sorted(set(recorded) | set(local)))
+    killed += killed_too
     if killed:
         print(f"fw1394: warning: had to kill {len(killed)} processes", file=sys.stderr)
-    print(f"bus {config.name!r} is down")
+    for pid in left:
+        print(f"fw1394: warning: could not stop node process {pid}", file=sys.stderr)
+    for member in elsewhere:
+        print(
+            f"fw1394: warning: node process {member.pid} at {member.address} is not on this "
+            "host (or in another PID namespace): stop it there",
+            file=sys.stderr,
+        )
+    if left or elsewhere:
+        print(f"bus {config.name!r} is down here; {len(left) + len(elsewhere)} nodes still run")
+        return 1
+    extra = f" ({len(stopped)} nodes joined by hand stopped)" if stopped else ""
+    print(f"bus {config.name!r} is down{extra}")
+    return 0
+
+
+def bus_key(args: argparse.Namespace) -> int:
+    config = bus_config(args)
+    key = bus_key_of(config)
+    if key is None:
+        raise CliError(f"bus {config.name!r} has no key here (not up, or up with --insecure)")
+    if args.json:
+        print_json_lines([{"bus": config.name, "key": key.hex()}])
+    else:
+        print(key.hex())
     return 0
 
 

@@ -106,7 +106,7 @@ def _transact(args: argparse.Namespace, what: str, action: Any) -> Any:
                     "is it up? fw1394 bus up --nodes N)"
                 )
             return action(port)
-        except BusError as error:
+        except (BusError, ValueError) as error:  # ValueError: a block too long for this bus
             raise CliError(str(error)) from None
         except TransactionError as error:
             failure = {"reason": str(error.reason)}

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import struct
 
-from construct import Const, Default, Int8ub, Int16ub, Int32ub, Struct
+from construct import Bytes, Const, Default, Int8ub, Int16ub, Int32ub, Int64ub, Struct
 
 from fw1394.packets.bitfields import flatten, struct_format
 
@@ -32,6 +32,19 @@ FRAME_HEADER = Struct(
     # Read as whatever arrives, written as 0: a later version may use it.
     "reserved" / Default(Int8ub, 0),
     "sequence" / Int32ub,  # per sender, wraps; acks name the frame by it
+)
+
+#: Bytes of the keyed MAC that ends a sealed frame.
+FRAME_MAC_SIZE = 16
+
+#: What every frame of a keyed bus ends with, behind its payload: a trailer, so
+#: that the header and every offset the kernel filter reads stay where they are.
+FRAME_TRAILER = Struct(
+    # Per sender, one more for every datagram it sends (a copy too): the receivers'
+    # replay window reads it. 64 bits never wrap.
+    "counter" / Int64ub,
+    # BLAKE2s keyed with the bus key over everything before it, counter included.
+    "mac" / Bytes(FRAME_MAC_SIZE),
 )
 
 #: The payload of an ack frame; a concatenated response may follow it.
@@ -77,3 +90,7 @@ FRAME_PREFIX = constant_prefix(FRAME_HEADER)
 
 ACK_FRAME_FORMAT = struct.Struct(struct_format(ACK_FRAME))
 ACK_FRAME_SIZE = ACK_FRAME.sizeof()
+
+FRAME_TRAILER_SIZE = FRAME_TRAILER.sizeof()
+#: The trailer's counter alone (the MAC is raw bytes, not a struct field).
+FRAME_COUNTER_FORMAT = struct.Struct(struct_format(Struct(FRAME_TRAILER.subcons[0])))

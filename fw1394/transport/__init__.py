@@ -6,6 +6,7 @@
   the kernel filter that plays the link layer's address recognition.
 * :mod:`~fw1394.transport.membership`: bus resets, self-IDs, physical IDs (sans-IO).
 * :mod:`~fw1394.transport.station`: one member's plumbing (node or host).
+* :mod:`~fw1394.transport.seal`: the bus key; sealing and verifying frames, replays.
 * :mod:`~fw1394.transport.link`: the link layer: frames to engine calls and back,
   for the requester and the responder side of every member and tunnel.
 * :mod:`~fw1394.transport.bus_host`, :mod:`~fw1394.transport.bus_port`: the host side.

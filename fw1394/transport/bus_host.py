@@ -104,6 +104,7 @@ class BusHost:
         self._timers_due = 0.0
         #: When the host last served the bus (its timers run only inside its calls).
         self._served_at = time.monotonic()
+        self._paused_after = self.station.membership.timing.heartbeat
         self.resets: list[BusReset] = []
 
     # -- context manager ----------------------------------------------------------------
@@ -169,10 +170,11 @@ class BusHost:
         return tid
 
     def start_read_block(self, node: int, offset: int, length: int) -> int:
-        if length > MAX_BLOCK_READ:
+        # A keyed bus's frames end with a trailer: its blocks are that much shorter.
+        if length > (limit := MAX_BLOCK_READ - self.station.trailer_size):
             raise ValueError(
                 f"a block read of {length} bytes cannot cross the virtual bus: its response "
-                f"would not fit one datagram (at most {MAX_BLOCK_READ} bytes per read)"
+                f"would not fit one datagram (at most {limit} bytes per read)"
             )
         tid = self.requester.read_block(resolve(node), offset, length, self._on_bus())
         self._flush_requests()
@@ -184,10 +186,10 @@ class BusHost:
         return tid
 
     def start_write_block(self, node: int, offset: int, data: bytes) -> int:
-        if len(data) > MAX_BLOCK_WRITE:
+        if len(data) > (limit := MAX_BLOCK_WRITE - self.station.trailer_size):
             raise ValueError(
                 f"a block write of {len(data)} bytes cannot cross the virtual bus: it would "
-                f"not fit one datagram (at most {MAX_BLOCK_WRITE} bytes per write)"
+                f"not fit one datagram (at most {limit} bytes per write)"
             )
         tid = self.requester.write_block(resolve(node), offset, data, self._on_bus())
         self._flush_requests()
@@ -264,6 +266,10 @@ class BusHost:
             now = self.link.turn()
         except BusRefusedError as error:
             raise self._refused(error) from None
+        if now - self._served_at > self._paused_after:
+            # Stopped inside a call: the answers that queued up meanwhile are taken
+            # before any engine timer can call them missing.
+            self._come_back(now)
         self._served_at = now
         if now >= self._timers_due:
             # Engine timeouts are tens of milliseconds and up: looking at them once a

@@ -11,7 +11,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 DEFAULT_BUS = "default"
 #: Administratively scoped IPv4 multicast (RFC 2365): never routed off a site.
@@ -43,11 +43,14 @@ class BusConfig:
     ``interface`` is the local IPv4 address multicast leaves and arrives on:
     loopback by default, the address of a LAN interface to span machines.
     ``ttl`` 0 keeps every datagram on this host; a LAN bus needs 1.
+    ``key`` is the bus's secret (``fw1394.transport.seal``): None looks it up
+    (environment, then the bus's runtime directory), ``b""`` means insecure.
     """
 
     name: str = DEFAULT_BUS
     interface: str = LOOPBACK
     ttl: int = 0
+    key: bytes | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         check_bus_name(self.name)

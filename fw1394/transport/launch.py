@@ -11,13 +11,16 @@ from pathlib import Path
 from fw1394.transport.config import BusConfig
 from fw1394.transport.observe import BusView, watch
 from fw1394.transport.runtime import (
+    KEY_FILE,
     SUPERVISOR_MODULE,
     NodeRecord,
     bus_dir,
+    prepare,
     read_nodes,
     stop_bus,
     supervisor_alive,
 )
+from fw1394.transport.seal import KEY_ENV, KEY_FILE_ENV, write_key
 
 
 class LaunchError(RuntimeError):
@@ -46,6 +49,8 @@ class LaunchedBus:
         root: Path | None = None,
         node_arguments: tuple[str, ...] = (),
         log: Path | None = None,
+        key: bytes | None = None,
+        restart: bool = False,
     ) -> None:
         self.config = config
         self.nodes = nodes
@@ -54,6 +59,10 @@ class LaunchedBus:
         self.root = root
         self.node_arguments = node_arguments
         self.log = log
+        #: The bus key (``fw1394.transport.seal``): every node is given it; None: insecure.
+        self.key = key
+        #: Restart a node process that dies (with back-off), as ``bus up`` does.
+        self.restart = restart
         self.directory = bus_dir(config.name, root)
         self.process: subprocess.Popen[bytes] | None = None
 
@@ -84,11 +93,23 @@ class LaunchedBus:
             cmd += ["--root", str(self.root)]
         if self.attached:
             cmd += ["--parent-pid", str(os.getpid())]
+        if self.restart:
+            cmd += ["--restart"]
         return cmd + list(self.node_arguments)
 
     def start(self, timeout: float = 30.0) -> None:
         if supervisor_alive(self.directory) is not None:
             raise AlreadyUpError(f"bus {self.config.name!r} is already up (fw1394 bus down first)")
+        environment = dict(os.environ)
+        key_file = prepare(self.config.name, self.root) / KEY_FILE
+        if self.key is None:
+            key_file.unlink(missing_ok=True)  # a crashed keyed bus's, or none
+            environment.pop(KEY_FILE_ENV, None)
+            environment.pop(KEY_ENV, None)
+        else:
+            write_key(key_file, self.key)
+            environment[KEY_FILE_ENV] = str(key_file)  # the nodes inherit it
+            environment.pop(KEY_ENV, None)
         output = open(self.log, "ab") if self.log else subprocess.DEVNULL  # noqa: SIM115
         try:
             self.process = subprocess.Popen(
@@ -97,6 +118,7 @@ class LaunchedBus:
                 stdout=output,
                 stderr=output,
                 start_new_session=not self.attached,
+                env=environment,
             )
         finally:
             if self.log:
@@ -113,6 +135,12 @@ class LaunchedBus:
     def records(self) -> list[NodeRecord]:
         return read_nodes(self.directory)
 
+    @property
+    def member_config(self) -> BusConfig:
+        """The configuration a member of this bus needs (its key included)."""
+        config = self.config
+        return BusConfig(config.name, config.interface, config.ttl, key=self.key or b"")
+
     def wait_members(self, count: int | None = None, timeout: float = 30.0) -> BusView:
         """The bus view once ``count`` (default: all) node processes are members."""
         want = self.nodes if count is None else count
@@ -120,7 +148,7 @@ class LaunchedBus:
         def complete(view: BusView) -> bool:
             return sum(1 for m in view.members if not m.host) >= want
 
-        view = watch(self.config, timeout, complete)
+        view = watch(self.member_config, timeout, complete)
         if view is None:
             raise LaunchError(
                 f"bus {self.config.name!r}: {want} nodes not on the bus in {timeout} s"

@@ -39,6 +39,10 @@ from fw1394.transport.wire import (
 )
 
 SortKey = tuple[bool, int, int]
+#: Requests that concern the generation they were sent in: one from an earlier
+#: generation is out of date (and on a keyed bus, where nobody can forge a frame
+#: of this generation, the only way to replay one).
+_OF_THIS_GENERATION = frozenset({FrameKind.reset_request, FrameKind.leave})
 
 
 @dataclass(frozen=True, slots=True)
@@ -121,6 +125,8 @@ class Membership:
         self._last_join = -math.inf
         self._last_heartbeat = -math.inf
         self._reset_time = now
+        #: When :meth:`tick` last ran: a longer gap means this process was not running.
+        self._awake_at = now
         self._boss = _CoordinatorState()
         self._outgoing: list[Outgoing] = []
         self._changes: list[Change] = []
@@ -180,6 +186,8 @@ class Membership:
             if header.generation == self.generation and is_self_id(payload):
                 self.self_ids[header.sender_phy] = payload
             return
+        if kind in _OF_THIS_GENERATION and header.generation < self.generation:
+            return  # the reset since has done what it asked for; or a replay
         if self.role is Role.coordinator:
             self._boss.last_heard[header.sender] = now
         if kind == FrameKind.beacon:
@@ -309,6 +317,9 @@ class Membership:
     # -- time -------------------------------------------------------------------------
     def tick(self, now: float) -> None:
         t = self.timing
+        away, self._awake_at = now - self._awake_at, now
+        if away > 2 * t.heartbeat and self.role is not Role.joining:
+            self._back_from_pause(away)
         if self.role is Role.joining:
             if now - self._silence_since >= t.lease:
                 self._found_bus(now)
@@ -326,6 +337,19 @@ class Membership:
                 self._take_over(now, dead)
             return
         self._coordinate(now)
+
+    def _back_from_pause(self, away: float) -> None:
+        """This process did not run for ``away`` seconds (stopped, or starved of CPU).
+
+        Silence while we were not listening says nothing about the others: it must
+        neither make us take over (the bus would get a second physical ID 0) nor
+        end the leases of members we could not hear. What the bus said meanwhile
+        is queued on our socket and comes next; if it dropped us, that includes
+        the reset that left us out, and we join again then.
+        """
+        self._silence_since += away
+        boss = self._boss
+        boss.last_heard = {member: heard + away for member, heard in boss.last_heard.items()}
 
     def _coordinate(self, now: float) -> None:
         t, boss = self.timing, self._boss

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 from fw1394.transport.config import BusConfig
 from fw1394.transport.medium import Medium
+from fw1394.transport.seal import Sealer, Verifier, key_for
 from fw1394.transport.wire import (
     EVERY_MEMBER,
     HEADER_SIZE,
@@ -39,13 +40,20 @@ def watch(
     timeout: float,
     accept: Callable[[BusView], bool] = lambda view: True,
 ) -> BusView | None:
-    """The first beacon within ``timeout`` seconds whose view ``accept`` likes."""
+    """The first beacon within ``timeout`` seconds whose view ``accept`` likes.
+
+    On a keyed bus only beacons with a valid MAC count (without the key, none do).
+    """
+    key = key_for(config)
+    verifier = None if key is None else Verifier(key)
     medium = Medium(config, poll_interval=0.02)
     try:
         medium.filter_as_tap()
         limit = time.monotonic() + timeout
         while time.monotonic() < limit:
             raw = medium.receive()
+            if raw is not None and verifier is not None:
+                raw = verifier.open(raw)
             if raw is None:
                 continue
             try:
@@ -63,18 +71,24 @@ def watch(
         medium.close()
 
 
-def request_reset(config: BusConfig) -> None:
-    """Ask whoever coordinates the bus for a bus reset."""
+def request_reset(config: BusConfig, generation: int) -> None:
+    """Ask whoever coordinates the bus in ``generation`` for a bus reset.
+
+    Sealed with the bus key if there is one: without it the coordinator drops
+    the request (and counts it).
+    """
+    key = key_for(config)
     medium = Medium(config)
     try:
         header = FrameHeader(
             FrameKind.reset_request,
             config.tag,
             secrets.randbits(32) or 1,
-            0,
+            generation,
             NO_PHY,
             EVERY_MEMBER,
         )
-        medium.send(header.pack())
+        frame = header.pack()
+        medium.send(frame if key is None else Sealer(key).seal(frame))
     finally:
         medium.close()

@@ -1,12 +1,16 @@
-"""Runtime state of buses started in the background: one directory per bus.
+"""Runtime state of buses: one directory per bus.
 
 ``$XDG_RUNTIME_DIR/fw1394/<bus>/`` (or ``/tmp/fw1394-<uid>/<bus>/``) holds
-``supervisor.pid`` and ``nodes.json`` (the node processes it started), so that
-``fw1394 bus down`` finds every process even if the bus itself is wedged.
+``supervisor.pid`` and ``nodes.json`` (the node processes it started), the
+bus key (``key``, mode 0600, on a keyed bus) and ``members/``: one small file
+per member process of this host, with its pid and the frames it dropped, so
+that ``fw1394 bus down`` finds every process, those joined by hand too, even
+if the bus itself is wedged, and ``bus status`` can show the drop counts.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
@@ -14,11 +18,19 @@ import signal
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from fw1394.transport.config import check_bus_name
 from fw1394.transport.procs import process_alive
 
+if TYPE_CHECKING:
+    from fw1394.transport.seal import DropCounts
+    from fw1394.transport.wire import MemberInfo
+
 SUPERVISOR_MODULE = "fw1394.transport.supervisor"
+#: The bus key's file in the bus's directory (fw1394.transport.seal).
+KEY_FILE = "key"
+MEMBERS_DIR = "members"
 
 
 @dataclass(frozen=True, slots=True)
@@ -27,6 +39,53 @@ class NodeRecord:
     board: str
     board_id: int
     pid: int
+
+
+@dataclass(frozen=True, slots=True)
+class MemberRecord:
+    """What a member process of this host says about itself in ``members/``."""
+
+    pid: int
+    member_id: int
+    host: bool
+    #: Frames dropped without a valid MAC, and as replays; None on an insecure bus.
+    forged: int | None = None
+    replayed: int | None = None
+
+
+class MemberFile:
+    """This member's file in the bus's runtime directory (``bus down``, ``bus status``)."""
+
+    def __init__(self, bus: str, info: MemberInfo, dropped: DropCounts | None) -> None:
+        self._directory = bus_dir(bus)
+        self._info, self._dropped = info, dropped
+        self._path: Path | None = None
+        self._written: int | None = None
+        self._due = 0.0
+        self.update(0.0)
+
+    def update(self, now: float) -> None:
+        # Rewritten when the drop counts changed, at most once a second.
+        dropped = self._dropped
+        total = None if dropped is None else dropped.total
+        if (self._path is not None and total == self._written) or now < self._due:
+            return
+        self._written, self._due = total, now + 1.0
+        info = self._info
+        record = MemberRecord(
+            info.pid,
+            info.member_id,
+            info.host,
+            None if dropped is None else dropped.forged,
+            None if dropped is None else dropped.replayed,
+        )
+        with contextlib.suppress(OSError):  # a read-only runtime directory costs only this
+            self._path = write_member(self._directory, record)
+
+    def remove(self) -> None:
+        if self._path is not None:
+            with contextlib.suppress(OSError):
+                remove_member(self._path)
 
 
 def runtime_root() -> Path:
@@ -57,6 +116,43 @@ def read_nodes(directory: Path) -> list[NodeRecord]:
         return [NodeRecord(**entry) for entry in json.loads((directory / "nodes.json").read_text())]
     except (FileNotFoundError, ValueError, TypeError):
         return []
+
+
+def member_file(directory: Path, record: MemberRecord) -> Path:
+    return directory / MEMBERS_DIR / f"{record.pid}-{record.member_id:08x}.json"
+
+
+def write_member(directory: Path, record: MemberRecord) -> Path:
+    """Record (or update) a member process; its file's path."""
+    path = member_file(directory, record)
+    path.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
+    temporary = path.with_suffix(".tmp")
+    temporary.write_text(json.dumps(asdict(record)))
+    temporary.replace(path)
+    return path
+
+
+def remove_member(path: Path) -> None:
+    """A member leaves: its file goes, and the directories if nothing else is left."""
+    path.unlink(missing_ok=True)
+    for directory in (path.parent, path.parent.parent):
+        try:
+            directory.rmdir()
+        except OSError:
+            break  # not empty: the bus or another member still uses it
+
+
+def read_members(directory: Path) -> list[MemberRecord]:
+    """The members recorded whose process still runs."""
+    records = []
+    for path in sorted((directory / MEMBERS_DIR).glob("*.json")):
+        try:
+            record = MemberRecord(**json.loads(path.read_text()))
+        except (OSError, ValueError, TypeError):
+            continue
+        if process_alive(record.pid):
+            records.append(record)
+    return records
 
 
 def read_pid(directory: Path) -> int | None:
@@ -96,6 +192,32 @@ def stop_bus(directory: Path, grace: float = 5.0) -> list[int]:
     _wait_gone(leftovers, grace)
     shutil.rmtree(directory, ignore_errors=True)
     return leftovers
+
+
+def stop_members(pids: list[int], grace: float = 5.0) -> tuple[list[int], list[int], list[int]]:
+    """Stop member processes that no supervisor started (``node run`` by hand).
+
+    SIGTERM (a node leaves the bus cleanly), then SIGKILL after ``grace``; only
+    processes of this package. The pids stopped, those that needed SIGKILL, and
+    those that could not be stopped (another user's, say).
+    """
+    ours = [pid for pid in pids if is_ours(pid)]
+    stopped, left = [], []
+    for pid in ours:
+        try:
+            os.kill(pid, signal.SIGTERM)
+            stopped.append(pid)
+        except OSError:
+            left.append(pid)
+    _wait_gone(stopped, grace)
+    killed = [pid for pid in stopped if is_ours(pid)]
+    for pid in killed:
+        with contextlib.suppress(OSError):
+            os.kill(pid, signal.SIGKILL)
+    _wait_gone(killed, grace)
+    left += [pid for pid in killed if is_ours(pid)]
+    left += [pid for pid in pids if pid not in ours and process_alive(pid)]
+    return [pid for pid in stopped if pid not in left], killed, left
 
 
 def _wait_gone(pids: list[int], seconds: float) -> None:

@@ -16,14 +16,18 @@ import re
 import secrets
 import struct
 import time
+from collections.abc import Callable, Iterator
 from itertools import count
 
 from fw1394.packets import Speed
+from fw1394.packets.frame import FRAME_TRAILER_SIZE
+from fw1394.transport import runtime
 from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig, FaultInjector
 from fw1394.transport.medium import Medium
 from fw1394.transport.membership import Change, Membership, Role, Timing
 from fw1394.transport.procs import pid_namespace, process_alive
+from fw1394.transport.seal import DropCounts, Sealer, Verifier, key_for
 from fw1394.transport.wire import (
     CONTROL_KINDS,
     HEADER,
@@ -103,6 +107,13 @@ class Station:
         )
         self._member_id = self.info.member_id
         self.medium = Medium(config, poll_interval)
+        # A keyed bus: every datagram out is sealed (each copy on its own), every
+        # one in verified; docs/virtual-bus.md, "Faults and threats".
+        key = key_for(config)
+        self._verifier = None if key is None else Verifier(key)
+        self._put = self.medium.send if key is None else self._sealed_sender(key)
+        self.trailer_size = 0 if key is None else FRAME_TRAILER_SIZE
+        self._max_payload = _MAX_PAYLOAD - self.trailer_size
         self.medium.filter_as_member(self.info.member_id, None, drop_acks)
         self.membership = Membership(self.info, time.monotonic(), timing)
         self._filtered_phy: int | None = None
@@ -113,6 +124,7 @@ class Station:
         #: (a plain attribute, read on every turn of their loops).
         self.wake_by = math.inf
         self._last_pid_check = 0.0
+        self._record = runtime.MemberFile(config.name, self.info, self.dropped)
 
     # -- state ------------------------------------------------------------------------
     @property
@@ -131,6 +143,15 @@ class Station:
     def faults(self) -> FaultInjector | None:
         return self._injector
 
+    @property
+    def dropped(self) -> DropCounts | None:
+        """Frames dropped for want of a valid MAC, or as replays; None: insecure bus."""
+        return None if self._verifier is None else self._verifier.dropped
+
+    def _sealed_sender(self, key: bytes) -> Callable[[bytes], None]:
+        seal, send = Sealer(key).seal, self.medium.send
+        return lambda frame: send(seal(frame))
+
     def changes(self) -> list[Change]:
         return self.membership.changes()
 
@@ -147,8 +168,8 @@ class Station:
         Raises :class:`FrameTooLarge` (and sends nothing) for a payload no datagram
         can carry.
         """
-        if len(payload) > _MAX_PAYLOAD:
-            raise FrameTooLarge(HEADER_SIZE + len(payload))
+        if len(payload) > self._max_payload:
+            raise FrameTooLarge(HEADER_SIZE + len(payload) + self.trailer_size)
         sequence = next(self._sequence) & 0xFFFFFFFF
         membership = self.membership
         phy = membership.phy_id
@@ -170,30 +191,29 @@ class Station:
             + payload
         )
         if self._injector is None or kind not in _FAULTED:
-            self.medium.send(frame)
+            self._put(frame)
             return sequence
         now = time.monotonic()
         for when in self._injector.send_times(now):
             if when <= now:
-                self.medium.send(frame)
+                self._put(frame)
             else:
                 heapq.heappush(self._delayed, (when, sequence, frame))
                 self.wake_by = min(self.wake_by, when)
         return sequence
 
     # -- receiving --------------------------------------------------------------------
-    def catch_up(self) -> list[tuple[FrameHeader, bytes]]:
+    def catch_up(self) -> Iterator[tuple[FrameHeader, bytes]]:
         """Every frame queued while the owner was away, taken without waiting.
 
-        Bus management takes effect in arrival order, as in :meth:`receive`; the
-        data frames are returned in that order.
+        Each data frame is handed over before the frames behind it are taken, so
+        that a bus reset queued after the answers to a transaction takes effect
+        only after the owner has taken those answers, as in :meth:`receive`.
         """
-        frames = []
         while (raw := self.medium.receive_queued()) is not None:
             frame = self._take(raw)
             if frame is not None:
-                frames.append(frame)
-        return frames
+                yield frame
 
     def receive(self) -> tuple[FrameHeader, bytes] | None:
         """The next data frame (async packet, ack, PHY packet), or None on a quiet poll."""
@@ -201,6 +221,11 @@ class Station:
         return None if raw is None else self._take(raw)
 
     def _take(self, raw: bytes) -> tuple[FrameHeader, bytes] | None:
+        if self._verifier is not None:
+            opened = self._verifier.open(raw)
+            if opened is None:
+                return None  # forged or replayed: counted, never seen
+            raw = opened
         if raw[:3] != _PREFIX or len(raw) < HEADER_SIZE:
             return None  # not ours: nothing on a real bus answers line noise
         header: FrameHeader = _new_header(FrameHeader, _FIELDS.unpack_from(raw))
@@ -216,7 +241,7 @@ class Station:
         """Timers: heartbeats, beacons, leases, delayed frames."""
         now = time.monotonic() if now is None else now
         while self._delayed and self._delayed[0][0] <= now:
-            self.medium.send(heapq.heappop(self._delayed)[2])
+            self._put(heapq.heappop(self._delayed)[2])
         self.wake_by = self._delayed[0][0] if self._delayed else math.inf
         membership = self.membership
         # Only the coordinator acts on a death, so only it pays for looking.
@@ -226,6 +251,7 @@ class Station:
             self._check_local_processes(now)
         membership.tick(now)
         self._flush_control()
+        self._record.update(now)
 
     def _check_local_processes(self, now: float) -> None:
         # Members on this host in this PID namespace: a dead process is noticed at
@@ -264,3 +290,4 @@ class Station:
             self._flush_control()
         finally:
             self.medium.close()
+            self._record.remove()

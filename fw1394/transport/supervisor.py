@@ -16,6 +16,7 @@ import signal
 import subprocess
 import sys
 import time
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import FrameType
 
@@ -35,6 +36,7 @@ def parse_args(argv: list[str]) -> tuple[argparse.Namespace, list[str]]:
     parser.add_argument("--board", default="memory")
     parser.add_argument("--root", type=Path, default=None)
     parser.add_argument("--parent-pid", type=int, default=None)
+    parser.add_argument("--restart", action="store_true", help="restart nodes that die")
     # Everything else (interface, timing, faults, defects, Ethernet) is passed through
     # to each node as node options.
     return parser.parse_known_args(argv)
@@ -91,16 +93,57 @@ def main(argv: list[str]) -> int:
             board = board_of(args.board, index)
             records.append(NodeRecord(index, board, index % BOARD_ID_MODULUS, child.pid))
         write_nodes(directory, records)
+        restarts = [Restart() for _ in children]
         while not stopping:
             time.sleep(0.1)
-            for child in children:
-                child.poll()  # reap crashed nodes; they stay down until the bus is restarted
+            for index, child in enumerate(children):
+                if child.poll() is None or not args.restart or stopping:
+                    continue  # reaped; without --restart a dead node stays down
+                now = time.monotonic()
+                if restarts[index].due(now, child.returncode, index):
+                    child = subprocess.Popen(node_command(args, index, passthrough))
+                    children[index] = child
+                    records[index] = replace(records[index], pid=child.pid)
+                    write_nodes(directory, records)
     finally:
         _end(children)
         for name in ("nodes.json", "supervisor.pid"):
             with contextlib.suppress(FileNotFoundError):
                 (directory / name).unlink()
     return 0
+
+
+#: Back-off between restarts of a node that keeps dying: doubling up to the maximum,
+#: back to the first after a node stayed up for STABLE seconds.
+FIRST_BACKOFF = 0.25
+MAX_BACKOFF = 30.0
+STABLE = 10.0
+
+
+@dataclass(slots=True)
+class Restart:
+    """When a dead node process is started again (systemd's Restart= with back-off)."""
+
+    started: float = field(default_factory=time.monotonic)
+    backoff: float = FIRST_BACKOFF / 2
+    at: float | None = None
+
+    def due(self, now: float, status: int | None, index: int) -> bool:
+        """Whether to start the node now (it died; told once, then waited for)."""
+        if self.at is None:
+            stable = now - self.started >= STABLE
+            self.backoff = FIRST_BACKOFF if stable else min(self.backoff * 2, MAX_BACKOFF)
+            self.at = now + self.backoff
+            print(
+                f"fw1394 bus: node {index} exited (status {status}); "
+                f"restarting it in {self.backoff:.2f} s",
+                file=sys.stderr,
+                flush=True,
+            )
+        if now < self.at:
+            return False
+        self.at, self.started = None, now
+        return True
 
 
 def _end(children: list[subprocess.Popen[bytes]]) -> None:

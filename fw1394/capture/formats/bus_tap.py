@@ -5,6 +5,10 @@ socket filter passes every frame of the bus, as a bus analyser's PHY passes
 every packet. Asynchronous packets are held back briefly (``ack_wait``) so
 that the ack that followed can be joined to them; records come out in the
 order the packets were seen, each with its kernel arrival time in ns.
+
+On a keyed bus the tap verifies every frame's MAC as the members do: a frame
+without a valid one (a forgery, or a replay) is not recorded, and counted in
+:attr:`BusTap.dropped`. Without the key it records nothing of a keyed bus.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ from dataclasses import dataclass
 from fw1394.capture.formats.record import BusRecord, RecordType
 from fw1394.transport.config import BusConfig
 from fw1394.transport.medium import Medium
+from fw1394.transport.seal import DropCounts, Verifier, key_for
 from fw1394.transport.wire import (
     BROADCAST_PHY,
     HEADER_SIZE,
@@ -49,15 +54,23 @@ class BusTap:
         *,
         interface: str = "127.0.0.1",
         ack_wait: float = DEFAULT_ACK_WAIT,
+        key: bytes | None = None,
     ) -> None:
-        self.config = BusConfig(bus_name, interface=interface)
+        self.config = BusConfig(bus_name, interface=interface, key=key)
         self.ack_wait = ack_wait
+        bus_key = key_for(self.config)
+        self._verifier = None if bus_key is None else Verifier(bus_key)
         self.medium = Medium(self.config, poll_interval=0.005)
         self.medium.filter_as_tap()
         self._queue: deque[_Pending] = deque()
         self._waiting: dict[tuple[int, int, int], _Pending] = {}
         self._last_stamp_ns = 0
         self._closed = False
+
+    @property
+    def dropped(self) -> DropCounts | None:
+        """Frames not recorded for want of a valid MAC, or as replays; None: insecure bus."""
+        return None if self._verifier is None else self._verifier.dropped
 
     def __enter__(self) -> BusTap:
         return self
@@ -100,7 +113,10 @@ class BusTap:
             self._waiting.pop(head.key, None)
         return head.record
 
-    def _take(self, frame: bytes, stamp_ns: int) -> None:
+    def _take(self, raw: bytes, stamp_ns: int) -> None:
+        frame = raw if self._verifier is None else self._verifier.open(raw)
+        if frame is None:
+            return  # forged or replayed: counted
         try:
             header = parse_header(frame)
         except FrameError:
