@@ -2,7 +2,8 @@
 
 ``$XDG_RUNTIME_DIR/fw1394/<bus>/`` (or ``/tmp/fw1394-<uid>/<bus>/``) holds
 ``supervisor.pid`` and ``nodes.json`` (the node processes it started), so that
-``fw1394 bus down`` finds every process even if the bus itself is wedged.
+``fw1394 bus down`` finds every process even if the bus itself is wedged, and
+the host adapter's socket ``adapter.sock`` (mode 0600) with ``adapter.pid``.
 """
 
 from __future__ import annotations
@@ -44,6 +45,11 @@ def prepare(name: str, root: Path | None = None) -> Path:
     directory = bus_dir(name, root)
     directory.mkdir(parents=True, exist_ok=True, mode=0o700)
     return directory
+
+
+def adapter_socket(directory: Path) -> Path:
+    """Where the bus's host adapter listens (fw1394.transport.adapter)."""
+    return directory / "adapter.sock"
 
 
 def write_nodes(directory: Path, nodes: list[NodeRecord]) -> None:

@@ -24,6 +24,8 @@ from fw1394.transport.runtime import NodeRecord, prepare, write_nodes
 
 #: The node program: run by module name (the node package sits above the transport).
 NODE_MODULE = "fw1394.node"
+#: The host adapter program (not imported: it is a process of its own).
+ADAPTER_MODULE = "fw1394.transport.adapter"
 #: Board IDs are the 4-bit rotary switch of the thesis boards.
 BOARD_ID_MODULUS = 16
 
@@ -35,6 +37,7 @@ def parse_args(argv: list[str]) -> tuple[argparse.Namespace, list[str]]:
     parser.add_argument("--board", default="memory")
     parser.add_argument("--root", type=Path, default=None)
     parser.add_argument("--parent-pid", type=int, default=None)
+    parser.add_argument("--adapter", action="store_true", help="start the bus's host adapter")
     # Everything else (interface, timing, faults, defects, Ethernet) is passed through
     # to each node as node options.
     return parser.parse_known_args(argv)
@@ -91,6 +94,12 @@ def main(argv: list[str]) -> int:
             board = board_of(args.board, index)
             records.append(NodeRecord(index, board, index % BOARD_ID_MODULUS, child.pid))
         write_nodes(directory, records)
+        if args.adapter:  # the bus's shared host node (fw1394.transport.adapter)
+            root = ["--root", str(args.root)] if args.root else []
+            adapter = [sys.executable, "-m", ADAPTER_MODULE, "--name", args.name, *root]
+            children.append(
+                subprocess.Popen([*adapter, "--parent-pid", str(os.getpid()), *passthrough])
+            )
         while not stopping:
             time.sleep(0.1)
             for child in children:
