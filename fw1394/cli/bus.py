@@ -169,6 +169,7 @@ def _bus_handler(action: str) -> Any:
 
 # -- handlers -----------------------------------------------------------------------------
 def bus_up(args: argparse.Namespace) -> int:
+    from fw1394.transport.adapter import wait_adapter
     from fw1394.transport.launch import AlreadyUpError, LaunchedBus, LaunchError
     from fw1394.transport.runtime import prepare
 
@@ -191,6 +192,7 @@ def bus_up(args: argparse.Namespace) -> int:
         raise CliError(str(error)) from None
     node_arguments += max(ethernet, key=len)  # kinds without an Ethernet side ignore them
     node_arguments += defect_arguments(args)  # planted bugs for the fuzzer
+    node_arguments += ("--adapter",)  # the bus's shared host node (fw1394.transport.adapter)
     timing(args)
     faults(args)
     log = prepare(config.name) / "bus.log"
@@ -200,6 +202,7 @@ def bus_up(args: argparse.Namespace) -> int:
     try:
         bus.start(timeout=args.timeout)
         view = bus.wait_members(timeout=args.timeout)
+        view = wait_adapter(config, bus.directory, args.timeout) or view
     except AlreadyUpError as error:
         raise CliError(str(error)) from None  # the running bus is not ours to stop
     except LaunchError as error:

@@ -51,6 +51,7 @@ from fw1394.transport.bus_host import BusError, BusHost
 from fw1394.transport.config import BusConfig
 from fw1394.transport.link import ACK, ACK_BYTES, ACK_SIZE, ASYNC_PACKET, RequesterLink
 from fw1394.transport.membership import Timing
+from fw1394.transport.observe import BusView, watch
 from fw1394.transport.procs import die_with_parent
 from fw1394.transport.runtime import adapter_socket, prepare
 from fw1394.transport.wire import ACK_PAYLOAD, NO_PHY, FrameHeader, pack_table
@@ -378,6 +379,29 @@ def _listen(path: Path) -> socket.socket:
     return listener
 
 
+def wait_adapter(config: BusConfig, directory: Path, timeout: float) -> BusView | None:
+    """The bus view once the adapter of ``directory`` listens and is a member; None if not."""
+    limit = time.monotonic() + timeout
+    path = adapter_socket(directory)
+    while not path.exists():
+        if time.monotonic() > limit:
+            return None
+        time.sleep(0.02)
+    pid = adapter_pid(directory)
+    if pid is None:
+        return None
+    remaining = max(0.1, limit - time.monotonic())
+    return watch(config, remaining, lambda view: any(m.pid == pid for m in view.members))
+
+
+def adapter_pid(directory: Path) -> int | None:
+    """The pid of the adapter of bus directory ``directory``, if one runs."""
+    try:
+        return int((directory / PID_FILE).read_text())
+    except (OSError, ValueError):
+        return None
+
+
 def parse_args(argv: list[str]) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
         prog="python -m fw1394.transport.adapter",
@@ -410,12 +434,13 @@ def main(argv: list[str]) -> int:
     host = AdapterHost(config, timing=timing)
     try:
         host.wait_ready(timeout=math.inf if args.parent_pid else None)
+        # The pid first: whoever sees the socket can tell the adapter's member by it.
+        (directory / PID_FILE).write_text(str(os.getpid()))
         adapter = Adapter(host, adapter_socket(directory))
     except (BusError, OSError) as error:
         host.close()
         print(f"fw1394 adapter: {error}", file=sys.stderr)
         return 1
-    (directory / PID_FILE).write_text(str(os.getpid()))
 
     def stop(signum: int, frame: FrameType | None) -> None:
         adapter.stopping = True
