@@ -101,10 +101,13 @@ def print_members(rows: list[dict[str, Any]], as_json: bool) -> None:
     if as_json:
         print_json_lines(rows)
         return
-    table = [("PHY", "ROLE", "BOARD", "PID", "ADDRESS")]
+    table = [("PHY", "ROLE", "KIND", "GEN", "BOARD", "PID", "ADDRESS")]
     for row in rows:
         board = "-" if row["board_id"] is None else str(row["board_id"])
-        table.append((str(row["phy_id"]), row["role"], board, str(row["pid"]), str(row["address"])))
+        kind = row.get("kind") or ("-" if row["role"] != "node" else "unknown")
+        generation = str(row.get("generation", "-"))
+        cells = (row["role"], kind, generation, board, str(row["pid"]), str(row["address"]))
+        table.append((str(row["phy_id"]), *cells))
     print_table(table, indent="")
 
 
@@ -211,8 +214,18 @@ def bus_up(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         bus.stop()
         raise
-    print_members(member_rows(view.members), args.json)
+    print_members(labelled_rows(config, view), args.json)
     return 0
+
+
+def labelled_rows(config: BusConfig, view: Any) -> list[dict[str, Any]]:
+    """The member rows with each member's board kind, generation and role (fw1394 lsnodes)."""
+    from fw1394.cli.lsnodes import member_labels
+
+    rows = member_rows(view.members)
+    for row, label in zip(rows, member_labels(config, view.generation, view.members), strict=True):
+        row.update(label)
+    return rows
 
 
 def bus_status(args: argparse.Namespace) -> int:
@@ -228,7 +241,7 @@ def bus_status(args: argparse.Namespace) -> int:
         raise CliError(f"bus {config.name!r}: {where}no coordinator heard in {args.timeout} s")
     if not args.json:
         print(f"bus {config.name!r}: generation {view.generation}, {len(view.members)} members")
-    print_members(member_rows(view.members), args.json)
+    print_members(labelled_rows(config, view), args.json)
     live = {m.pid for m in view.members}
     missing = [n for n in started if n.pid not in live]
     for node in missing:
