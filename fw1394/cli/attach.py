@@ -4,7 +4,8 @@
 ``fw1394 bus up``), which costs the bus nothing: no bus reset, no new node.
 ``--own-member`` joins the bus as a host of its own instead (a second PC on
 the cable: one bus reset to join, one to leave); so does a command on a bus
-that has no adapter here (its nodes started by hand), with a note saying so.
+that has no adapter here (its nodes started by hand), with a note saying so
+on a terminal.
 """
 
 from __future__ import annotations
@@ -44,11 +45,12 @@ def open_port(args: argparse.Namespace) -> AdapterPort | BusPort:
     try:
         return AdapterPort(args.name, timeout=max(ADAPTER_REPLY_TIMEOUT, args.timeout * 5))
     except NoAdapterError:
-        print(
-            f"fw1394: note: bus {args.name!r} has no host adapter here (not started by "
-            "`fw1394 bus up`); joining it as a host of its own (two bus resets)",
-            file=sys.stderr,
-        )
+        if sys.stderr.isatty():  # for a person; a script's stderr stays its error line
+            print(
+                f"fw1394: note: bus {args.name!r} has no host adapter here (not started by "
+                "`fw1394 bus up`); joining it as a host of its own (two bus resets)",
+                file=sys.stderr,
+            )
         return host_port(args)
     except AdapterError as error:
         raise CliError(str(error)) from None
