@@ -22,8 +22,8 @@ if TYPE_CHECKING:
     from fw1394.transport.bus_port import BusPort
     from fw1394.transport.wire import MemberInfo
 
-#: Longest wait for one reply from the adapter beyond its own transaction timeouts
-#: (0.5 s ack, 1 s split, three busy retries).
+#: Longest wait for one reply from the adapter: its own transaction timeouts (1 s ack,
+#: 1 s split, three busy retries) end every transaction before.
 ADAPTER_REPLY_TIMEOUT = 10.0
 
 

@@ -413,6 +413,12 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     parser.add_argument("--ttl", type=int, default=0)
     parser.add_argument("--heartbeat", type=float, default=None)
     parser.add_argument("--lease", type=float, default=None)
+    parser.add_argument(
+        "--ack-timeout", type=float, default=1.0, help="seconds a request waits for its ack"
+    )
+    parser.add_argument(
+        "--split-timeout", type=float, default=1.0, help="seconds a request waits for its response"
+    )
     parser.add_argument("--root", type=Path, default=None)
     parser.add_argument("--parent-pid", type=int, default=None)
     # A supervisor hands on its node options; the adapter takes only the bus's.
@@ -431,7 +437,9 @@ def main(argv: list[str]) -> int:
     if args.lease is not None:
         timing = replace(timing, lease=args.lease)
     directory = prepare(args.name, args.root)
-    host = AdapterHost(config, timing=timing)
+    host = AdapterHost(
+        config, timing=timing, ack_timeout=args.ack_timeout, split_timeout=args.split_timeout
+    )
     try:
         host.wait_ready(timeout=math.inf if args.parent_pid else None)
         # The pid first: whoever sees the socket can tell the adapter's member by it.
