@@ -12,6 +12,7 @@ from __future__ import annotations
 from fw1394.boards.registry import BOARDS
 from fw1394.engine.policy import POLICIES, ResponderPolicy
 from fw1394.packets import TCode, name_of
+from fw1394.packets.tcodes import REQUEST_TCODES
 
 #: Requests every responder policy serves.
 ALWAYS_SERVED = frozenset(
@@ -34,6 +35,9 @@ def unserved(kind: str | None, tcode: int) -> str | None:
     entry = BOARDS.get(kind or "")
     if entry is None:
         return None
+    if tcode not in REQUEST_TCODES:
+        # Stream and cycle-start packets, responses: nothing a node acks or answers.
+        return f"a {name_of(TCode, tcode)} packet is no request: no node acks or answers it"
     policy = POLICIES[entry.policy]
     served = served_tcodes(policy)
     if tcode in served:
