@@ -195,7 +195,8 @@ def bus_up(args: argparse.Namespace) -> int:
         raise CliError(str(error)) from None
     node_arguments += max(ethernet, key=len)  # kinds without an Ethernet side ignore them
     node_arguments += defect_arguments(args)  # planted bugs for the fuzzer
-    node_arguments += ("--adapter",)  # the bus's shared host node (fw1394.transport.adapter)
+    if args.nodes < MAX_MEMBERS:  # the bus's shared host node (fw1394.transport.adapter)
+        node_arguments += ("--adapter",)
     timing(args)
     faults(args)
     log = prepare(config.name) / "bus.log"
@@ -205,7 +206,8 @@ def bus_up(args: argparse.Namespace) -> int:
     try:
         bus.start(timeout=args.timeout)
         view = bus.wait_members(timeout=args.timeout)
-        view = wait_adapter(config, bus.directory, args.timeout) or view
+        if args.nodes < MAX_MEMBERS:
+            view = wait_adapter(config, bus.directory, args.timeout) or view
     except AlreadyUpError as error:
         raise CliError(str(error)) from None  # the running bus is not ours to stop
     except LaunchError as error:
