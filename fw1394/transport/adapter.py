@@ -171,6 +171,8 @@ class AdapterHost(BusHost):
             self._flush_requests()
             self._collect()
         self._served_at = now
+        # Unsolicited responses and stray acks: nobody here asks for them.
+        self._other_events.clear()
 
     def finished(self, tid: int) -> object | None:
         return self._finished.pop(tid, None)
@@ -190,6 +192,8 @@ class Adapter:
         self.listener = _listen(path)
         self.clients: dict[socket.socket, Client] = {}
         self.pending: dict[int, tuple[Client, int]] = {}  # transaction -> client, request
+        #: Transactions of clients that left before they ended: their ends are dropped.
+        self.orphans: set[int] = set()
         self.stopping = False
 
     def close(self) -> None:
@@ -230,6 +234,7 @@ class Adapter:
     def _drop(self, client: Client) -> None:
         self.clients.pop(client.sock, None)
         client.sock.close()
+        self.orphans |= {t for t, p in self.pending.items() if p[0] is client}
         self.pending = {t: p for t, p in self.pending.items() if p[0] is not client}
         raw = self.host.raw
         for sequence in [s for s, r in raw.items() if r.client is client]:
@@ -325,6 +330,9 @@ class Adapter:
 
     def _answer_finished(self) -> None:
         host = self.host
+        for tid in [t for t in self.orphans if t in host._finished]:
+            host.finished(tid)
+            self.orphans.discard(tid)
         for tid in [t for t in self.pending if t in host._finished]:
             client, request = self.pending.pop(tid)
             self._reply(client, _reply_of(request, host.finished(tid)))

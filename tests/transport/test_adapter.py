@@ -257,3 +257,15 @@ def test_two_clients_and_watch_share_one_adapter() -> None:
         after = bus.view()
         assert after.generation == before.generation
         assert sum(m.host for m in after.members) == 1  # the adapter, no one else
+
+
+@pytest.mark.process
+def test_a_client_leaving_mid_transaction_harms_no_one(memory_bus: AdapterBus) -> None:
+    for _ in range(3):
+        leaver = AdapterPort(memory_bus.name, root=memory_bus.root)
+        for i in range(30):
+            leaver.start(Op.read, 0, 4 * i, length=4, quadlet=True)
+        leaver.close()  # gone before any reply
+    with AdapterPort(memory_bus.name, root=memory_bus.root) as port:
+        port.write_quadlet(0, 0x500, 0x5EED)
+        assert port.read_quadlet(0, 0x500) == 0x5EED
