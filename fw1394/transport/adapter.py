@@ -163,6 +163,9 @@ class AdapterHost(BusHost):
         for header, payload in station.catch_up():
             link.receive(header, payload, now)
         link.apply_changes()
+        # An answer frees a label: a request queued for one goes out now, not at the
+        # next timer (a concatenated response does not flush the link by itself).
+        self._flush_requests()
         if now >= link.due or now >= station.wake_by:
             link.service(now)
         due = requester.next_deadline()
@@ -251,7 +254,12 @@ class Adapter:
         try:
             bodies = client.frames.feed(data)
             for body in bodies:
-                self._handle(client, parse_request(body))
+                request = parse_request(body)
+                try:
+                    self._handle(client, request)
+                except Exception as error:  # one client's request never ends the bus's adapter
+                    detail = f"adapter error: {type(error).__name__}: {error}"
+                    self._reply(client, Reply(request.request, Status.refused, detail=detail))
         except ProtocolError as error:
             self._reply(client, Reply(0, Status.refused, detail=str(error)))
             self._drop(client)
@@ -334,13 +342,18 @@ class Adapter:
             host.finished(tid)
             self.orphans.discard(tid)
         for tid in [t for t in self.pending if t in host._finished]:
-            client, request = self.pending.pop(tid)
-            self._reply(client, _reply_of(request, host.finished(tid)))
+            # A reply that finds its client gone drops the client's other requests.
+            asked = self.pending.pop(tid, None)
+            if asked is None:
+                continue
+            self._reply(asked[0], _reply_of(asked[1], host.finished(tid)))
         raw = host.raw
         if raw:
             now = time.monotonic()
             for sequence in [s for s, r in raw.items() if r.done or now >= r.deadline]:
-                pending = raw.pop(sequence)
+                pending = raw.pop(sequence, None)
+                if pending is None:
+                    continue
                 ack = NONE if pending.ack is None else pending.ack
                 reply = Reply(pending.request, Status.ok, ack=ack, data=pending.response)
                 self._reply(pending.client, reply)
