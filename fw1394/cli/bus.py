@@ -112,16 +112,15 @@ def print_members(rows: list[dict[str, Any]], as_json: bool) -> None:
         print_json_lines(rows)
         return
     counted = any("dropped" in row for row in rows)
-    table = [("PHY", "ROLE", "BOARD", "PID", "ADDRESS") + (("DROPPED",) if counted else ())]
+    table = [("PHY", "ROLE", "KIND", "GEN", "BOARD", "PID", "ADDRESS")]
+    if counted:
+        table[0] += ("DROPPED",)
     for row in rows:
         board = "-" if row["board_id"] is None else str(row["board_id"])
-        line: tuple[str, ...] = (
-            str(row["phy_id"]),
-            row["role"],
-            board,
-            str(row["pid"]),
-            str(row["address"]),
-        )
+        kind = row.get("kind") or ("-" if row["role"] != "node" else "unknown")
+        generation = str(row.get("generation", "-"))
+        cells = (row["role"], kind, generation, board, str(row["pid"]), str(row["address"]))
+        line: tuple[str, ...] = (str(row["phy_id"]), *cells)
         if counted:
             dropped = [row.get(k) for k in ("dropped", "replayed")]
             line += ("-" if None in dropped else str(sum(d or 0 for d in dropped)),)
@@ -207,6 +206,7 @@ def _bus_handler(action: str) -> Any:
 
 # -- handlers -----------------------------------------------------------------------------
 def bus_up(args: argparse.Namespace) -> int:
+    from fw1394.transport.adapter import wait_adapter
     from fw1394.transport.launch import AlreadyUpError, LaunchedBus, LaunchError
     from fw1394.transport.runtime import prepare
 
@@ -229,6 +229,8 @@ def bus_up(args: argparse.Namespace) -> int:
         raise CliError(str(error)) from None
     node_arguments += max(ethernet, key=len)  # kinds without an Ethernet side ignore them
     node_arguments += defect_arguments(args)  # planted bugs for the fuzzer
+    if args.nodes < MAX_MEMBERS:  # the bus's shared host node (fw1394.transport.adapter)
+        node_arguments += ("--adapter",)
     timing(args)
     faults(args)
     from fw1394.transport.seal import new_key
@@ -247,6 +249,8 @@ def bus_up(args: argparse.Namespace) -> int:
     try:
         bus.start(timeout=args.timeout)
         view = bus.wait_members(timeout=args.timeout)
+        if args.nodes < MAX_MEMBERS:
+            view = wait_adapter(config, bus.directory, args.timeout) or view
     except AlreadyUpError as error:
         raise CliError(str(error)) from None  # the running bus is not ours to stop
     except LaunchError as error:
@@ -255,7 +259,7 @@ def bus_up(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         bus.stop()
         raise
-    print_members(member_rows(view.members), args.json)
+    print_members(labelled_rows(config, view), args.json)
     return 0
 
 
@@ -267,6 +271,16 @@ def bus_key_of(config: BusConfig) -> bytes | None:
         return key_for(config)
     except (BusKeyError, OSError) as error:
         raise CliError(str(error)) from None
+
+
+def labelled_rows(config: BusConfig, view: Any) -> list[dict[str, Any]]:
+    """The member rows with each member's board kind, generation and role (fw1394 lsnodes)."""
+    from fw1394.cli.lsnodes import member_labels
+
+    rows = member_rows(view.members)
+    for row, label in zip(rows, member_labels(config, view.generation, view.members), strict=True):
+        row.update(label)
+    return rows
 
 
 def bus_status(args: argparse.Namespace) -> int:
@@ -282,7 +296,7 @@ def bus_status(args: argparse.Namespace) -> int:
         where = f"{len(started)} node processes started here, " if started else ""
         raise CliError(f"bus {config.name!r}: {where}no coordinator heard in {args.timeout} s")
     members = {m.pid: m for m in read_members(directory)}
-    rows = member_rows(view.members)
+    rows = labelled_rows(config, view)
     for row in rows:
         record = members.get(row["pid"])
         row["dropped"] = None if record is None or record.forged is None else record.forged

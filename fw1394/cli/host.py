@@ -1,8 +1,9 @@
-"""``fw1394 read|write|lock``: act as a host on a virtual bus for one transaction.
+"""``fw1394 read|write|lock``: one transaction on a virtual bus, as its host.
 
-The command joins the bus as a host (one bus reset), runs the transaction
-through the engine and leaves (another reset), as plugging a PC into a cable
-and unplugging it would.
+The command runs the transaction through the bus's host adapter (the bus's
+PC, shared by every program: no bus reset), or with ``--own-member`` joins
+the bus as a host of its own (one bus reset to join, another to leave), as
+plugging a second PC into the cable would.
 """
 
 from __future__ import annotations
@@ -11,7 +12,8 @@ import argparse
 import json
 from typing import Any
 
-from fw1394.cli.bus import add_bus_options, add_member_options, bus_config, host_port
+from fw1394.cli.attach import add_attach_options, host_member, open_port, port_errors
+from fw1394.cli.bus import add_bus_options, add_member_options, bus_config
 from fw1394.cli.common import CliError, fail, integer
 from fw1394.packets import ExtendedTCode, RCode, name_of
 from fw1394.packets.hextext import quadlets_hex
@@ -69,7 +71,13 @@ def _parser(subparsers: Any, name: str, text: str) -> argparse.ArgumentParser:
     parser.add_argument("node", type=integer, metavar="NODE", help="physical ID (0-62)")
     parser.add_argument("offset", type=integer, metavar="OFFSET", help="48-bit address offset")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
-    parser.add_argument("--timeout", type=float, default=1.0, help="ack and response timeout (s)")
+    parser.add_argument(
+        "--timeout",
+        type=float,
+        default=1.0,
+        help="ack and response timeout (s) of --own-member (the adapter keeps its own)",
+    )
+    add_attach_options(parser)
     add_bus_options(parser)
     add_member_options(parser)
     return parser
@@ -91,12 +99,12 @@ def _quadlet(value: int) -> bytes:
 
 
 def _transact(args: argparse.Namespace, what: str, action: Any) -> Any:
-    """Join the bus, check the node is there, run ``action(port)``, leave."""
-    from fw1394.transport.bus_host import BusError, TransactionError
+    """Reach the bus, check the node is there, run ``action(port)``, let go."""
+    from fw1394.transport.bus_host import TransactionError
 
     _check(args)
     config = bus_config(args)
-    with host_port(args) as port:
+    with open_port(args) as port:
         try:
             nodes = dict(port.nodes())
             if args.node != BROADCAST_PHY and args.node not in nodes:
@@ -106,7 +114,7 @@ def _transact(args: argparse.Namespace, what: str, action: Any) -> Any:
                     "is it up? fw1394 bus up --nodes N)"
                 )
             return action(port)
-        except (BusError, ValueError) as error:  # ValueError: a block too long for this bus
+        except (*port_errors(), ValueError) as error:  # ValueError: a block too long here
             raise CliError(str(error)) from None
         except TransactionError as error:
             failure = {"reason": str(error.reason)}
@@ -115,7 +123,37 @@ def _transact(args: argparse.Namespace, what: str, action: Any) -> Any:
             if error.failure.detail:
                 failure["detail"] = error.failure.detail
             message = f"{what} of node {args.node} at {args.offset:#x}: {error}"
+            why = _why_unanswered(args, port, nodes, what, error)
+            if why:
+                # The board's kind rules the "outcome unknown" out: it never performs these.
+                failure["explanation"] = why
+                message = f"{what} of node {args.node} at {args.offset:#x}: {error.reason}: {why}"
             raise _Failed(message, failure) from None
+
+
+def _why_unanswered(
+    args: argparse.Namespace, port: Any, nodes: dict[int, Any], what: str, error: Any
+) -> str | None:
+    """What the node's board kind says about a request it did not answer."""
+    from fw1394.engine import FailureReason
+    from fw1394.host.explain import unserved
+    from fw1394.packets import TCode
+    from fw1394.watch.detect import member_kind
+
+    unanswered = (FailureReason.no_ack, FailureReason.ack_type_error)
+    member = nodes.get(args.node)
+    if error.reason not in unanswered or member is None or what not in _TCODE_OF:
+        return None
+    kind = member_kind(args.name, host_member(port), member)
+    return unserved(kind, TCode[_TCODE_OF[what]])
+
+
+#: The request tcode each command sends (reads and writes: either size is served alike).
+_TCODE_OF = {
+    "read": "read_quadlet_request",
+    "write": "write_quadlet_request",
+    "lock": "lock_request",
+}
 
 
 class _Failed(Exception):

@@ -4,14 +4,17 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import sys
 import time
 from typing import TYPE_CHECKING, Any
 
-from fw1394.cli.bus import add_bus_options, add_member_options, host_port
+from fw1394.cli.attach import add_attach_options, host_member, open_port, port_errors
+from fw1394.cli.bus import add_bus_options, add_member_options
 from fw1394.cli.common import CliError, integer
 
 if TYPE_CHECKING:
+    from fw1394.host.adapter_port import AdapterPort
     from fw1394.transport.bus_port import BusPort
     from fw1394.watch.readings import BoardReading
     from fw1394.watch.sampler import WatchedBoard
@@ -82,6 +85,7 @@ def register(subparsers: Any) -> None:
     parser.add_argument(
         "--timeout", type=float, default=0.5, metavar="S", help="ack and response timeout (s)"
     )
+    add_attach_options(parser)
     add_bus_options(parser)
     add_member_options(parser)
     parser.set_defaults(handler=run)
@@ -109,19 +113,17 @@ def _check(args: argparse.Namespace) -> None:
 
 def run(args: argparse.Namespace) -> int:
     _check(args)
-    from fw1394.transport.bus_host import BusError
-
-    with host_port(args) as port:
+    with open_port(args) as port:
         try:
             boards = _attach(port, args)
             if args.once:
                 return _snapshot(boards, args)
             return _live(boards, args)
-        except BusError as error:
+        except port_errors() as error:
             raise CliError(str(error)) from None
 
 
-def _attach(port: BusPort, args: argparse.Namespace) -> list[WatchedBoard]:
+def _attach(port: AdapterPort | BusPort, args: argparse.Namespace) -> list[WatchedBoard]:
     """A watched board per NODE, checked to be a snake2010 board where that can be told."""
     from fw1394.watch.detect import member_kind, snake_channels
     from fw1394.watch.sampler import WatchedBoard
@@ -144,7 +146,7 @@ def _attach(port: BusPort, args: argparse.Namespace) -> list[WatchedBoard]:
             )
         if member.host:
             raise CliError(f"node {node} on bus {name!r} is a host, not a board")
-        kind = member_kind(name, port.station.info, member)
+        kind = member_kind(name, host_member(port), member)
         channels = None if kind is None else snake_channels(kind)
         if kind is not None and channels is None:
             raise CliError(f"node {node} is a {kind!r} board; fw1394 watch shows snake2010 boards")
@@ -165,7 +167,10 @@ def _snapshot(boards: list[WatchedBoard], args: argparse.Namespace) -> int:
         return 0
     title = f"fw1394 watch  bus {args.name}  {time.strftime('%Y-%m-%d %H:%M:%S')}"
     panels = [BoardPanel(r.node, r.kind, r) for r in readings]
-    for line in view_lines(title, panels, conversions):
+    # A terminal gets what fits its width (wrapped, columns named when hidden);
+    # a pipe gets every column.
+    width = shutil.get_terminal_size().columns if sys.stdout.isatty() else None
+    for line in view_lines(title, panels, conversions, width=width):
         print(line.text.rstrip())
     return 0
 
@@ -198,5 +203,5 @@ def _live(boards: list[WatchedBoard], args: argparse.Namespace) -> int:
             except BOARD_ERRORS as error:
                 watched.problem = f"pot settings not read: {error}"
     controller = Controller(boards, args.step, args.read_only)
-    render = live_render(args.name, Conversions.of())
+    render = live_render(args.name, Conversions.of(), args.rate)
     return 0 if run_live(controller, render, args.rate) else 1

@@ -2,9 +2,10 @@
 
 ``$XDG_RUNTIME_DIR/fw1394/<bus>/`` (or ``/tmp/fw1394-<uid>/<bus>/``) holds
 ``supervisor.pid`` and ``nodes.json`` (the node processes it started), the
-bus key (``key``, mode 0600, on a keyed bus) and ``members/``: one small file
-per member process of this host, with its pid and the frames it dropped, so
-that ``fw1394 bus down`` finds every process, those joined by hand too, even
+bus key (``key``, mode 0600, on a keyed bus), the host adapter's socket
+``adapter.sock`` (mode 0600) with ``adapter.pid``, and ``members/``: one small
+file per member process of this host, with its pid and the frames it dropped,
+so that ``fw1394 bus down`` finds every process, those joined by hand too, even
 if the bus itself is wedged, and ``bus status`` can show the drop counts.
 """
 
@@ -103,6 +104,11 @@ def prepare(name: str, root: Path | None = None) -> Path:
     directory = bus_dir(name, root)
     directory.mkdir(parents=True, exist_ok=True, mode=0o700)
     return directory
+
+
+def adapter_socket(directory: Path) -> Path:
+    """Where the bus's host adapter listens (fw1394.transport.adapter)."""
+    return directory / "adapter.sock"
 
 
 def write_nodes(directory: Path, nodes: list[NodeRecord]) -> None:

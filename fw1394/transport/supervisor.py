@@ -25,6 +25,8 @@ from fw1394.transport.runtime import NodeRecord, prepare, write_nodes
 
 #: The node program: run by module name (the node package sits above the transport).
 NODE_MODULE = "fw1394.node"
+#: The host adapter program (not imported: it is a process of its own).
+ADAPTER_MODULE = "fw1394.transport.adapter"
 #: Board IDs are the 4-bit rotary switch of the thesis boards.
 BOARD_ID_MODULUS = 16
 
@@ -37,6 +39,7 @@ def parse_args(argv: list[str]) -> tuple[argparse.Namespace, list[str]]:
     parser.add_argument("--root", type=Path, default=None)
     parser.add_argument("--parent-pid", type=int, default=None)
     parser.add_argument("--restart", action="store_true", help="restart nodes that die")
+    parser.add_argument("--adapter", action="store_true", help="start the bus's host adapter")
     # Everything else (interface, timing, faults, defects, Ethernet) is passed through
     # to each node as node options.
     return parser.parse_known_args(argv)
@@ -94,6 +97,13 @@ def main(argv: list[str]) -> int:
             records.append(NodeRecord(index, board, index % BOARD_ID_MODULUS, child.pid))
         write_nodes(directory, records)
         restarts = [Restart() for _ in children]
+        commands = [node_command(args, index, passthrough) for index in range(len(children))]
+        if args.adapter:  # the bus's shared host node (fw1394.transport.adapter)
+            root = ["--root", str(args.root)] if args.root else []
+            adapter = [sys.executable, "-m", ADAPTER_MODULE, "--name", args.name, *root]
+            commands.append([*adapter, "--parent-pid", str(os.getpid()), *passthrough])
+            children.append(subprocess.Popen(commands[-1]))
+            restarts.append(Restart())
         while not stopping:
             time.sleep(0.1)
             for index, child in enumerate(children):
@@ -101,10 +111,11 @@ def main(argv: list[str]) -> int:
                     continue  # reaped; without --restart a dead node stays down
                 now = time.monotonic()
                 if restarts[index].due(now, child.returncode, index):
-                    child = subprocess.Popen(node_command(args, index, passthrough))
+                    child = subprocess.Popen(commands[index])
                     children[index] = child
-                    records[index] = replace(records[index], pid=child.pid)
-                    write_nodes(directory, records)
+                    if index < len(records):  # a node, not the adapter
+                        records[index] = replace(records[index], pid=child.pid)
+                        write_nodes(directory, records)
     finally:
         _end(children)
         for name in ("nodes.json", "supervisor.pid"):

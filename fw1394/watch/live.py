@@ -9,29 +9,74 @@ from contextlib import contextmanager
 from types import FrameType
 
 from fw1394.watch.controls import KEY_HELP, Controller
-from fw1394.watch.conversions import Conversions
+from fw1394.watch.conversions import Conversions, watchdog_seconds
 from fw1394.watch.screen import Render, run_curses
 from fw1394.watch.view import BoardPanel, Line, Style, view_lines
+
+#: The fastest refresh ``fw1394 watch --rate`` offers.
+MAX_FEED_HZ = 50.0
 
 
 def panels(controller: Controller) -> list[BoardPanel]:
     return [BoardPanel(w.node, w.kind, w.reading, w.problem) for w in controller.boards]
 
 
-def live_render(bus: str, conversions: Conversions) -> Render:
-    """The frame of the live view of bus ``bus``."""
+def live_render(bus: str, conversions: Conversions, rate_hz: float | None = None) -> Render:
+    """The frame of the live view of bus ``bus``, refreshed ``rate_hz`` times a second."""
 
-    def render(controller: Controller, rate_hz: float) -> list[Line]:
-        title = f"fw1394 watch  bus {bus}  {len(controller.boards)} board(s)  {rate_hz:4.1f} Hz"
+    def render(controller: Controller, achieved_hz: float, width: int | None = None) -> list[Line]:
+        title = f"fw1394 watch  bus {bus}  {len(controller.boards)} board(s)  {achieved_hz:4.1f} Hz"
         if controller.read_only:
             title += "  read-only"
-        held = len(controller.enabled_here)
-        if held:
-            title += f"  holding {held} amplifier(s) on, feeding the watchdog"
+        notice = amplifier_notice(controller, rate_hz or achieved_hz)
+        notices = [] if notice is None else [notice]
         footer = [Line(controller.message), Line(KEY_HELP, Style.DIM)]
-        return view_lines(title, panels(controller), conversions, controller.selected, footer)
+        return view_lines(
+            title, panels(controller), conversions, controller.selected, footer, width, notices
+        )
 
     return render
+
+
+def amplifier_notice(controller: Controller, rate_hz: float) -> Line | None:
+    """What became of the amplifiers this view switched on, as the boards report it.
+
+    The view feeds a board's watchdog once per refresh; a watchdog shorter than
+    the refresh period trips between two feeds and switches the amplifiers off,
+    which the boards' own status shows, and so must this line.
+    """
+    held = sorted(controller.enabled_here)
+    if not held:
+        return None
+    interval = 1.0 / rate_hz if rate_hz > 0 else None
+    on, tripped, short = 0, set(), {}
+    for board, axis in held:
+        reading = controller.boards[board].reading
+        if reading is None:
+            continue
+        node = reading.node
+        if any(c.axis == axis and c.enabled for c in reading.channels):
+            on += 1
+        if reading.status.watchdog_timeout:
+            tripped.add(node)
+        seconds = watchdog_seconds(reading.watchdog_period)
+        if reading.watchdog_period and interval is not None and seconds < interval:
+            short[node] = seconds
+    feed = f"every {interval * 1e3:.0f} ms" if interval is not None else "at each refresh"
+    text = f"holding {on} of {len(held)} amplifier(s) enabled here on, feeding the watchdog {feed}"
+    if tripped:
+        nodes = ",".join(str(node) for node in sorted(tripped))
+        text = f"watchdog TIMEOUT on node {nodes}: {on} of {len(held)} amplifier(s) enabled here on"
+    if short:
+        node, seconds = min(short.items(), key=lambda item: item[1])
+        fastest = min(MAX_FEED_HZ, 1.0 / seconds)
+        text += (
+            f"; node {node}'s {seconds * 1e3:.2f} ms watchdog is shorter than the "
+            f"{feed.removeprefix('every ')} between feeds (raise --rate toward "
+            f"{fastest:.0f} Hz or the watchdog period)"
+        )
+    alert = bool(tripped or short or on < len(held))
+    return Line(text, Style.ALERT if alert else Style.NORMAL)
 
 
 class Stopped(Exception):

@@ -15,6 +15,7 @@ from fw1394.boards.snake2010.rt_blocks import BlockSizeError
 from fw1394.boards.snake2010.spec import WATCHDOG_PERIOD_MASK
 from fw1394.engine.space import SpaceError
 from fw1394.host import Board, BoardError, Port, UnknownNodeError
+from fw1394.host.adapter_port import AdapterError
 from fw1394.transport.bus_host import BusError, TransactionError
 from fw1394.watch.readings import BoardReading, PotSettings, reading_of
 
@@ -24,6 +25,7 @@ _WATCHDOG_PERIOD = REGISTER_MAP.offset("WATCHDOG_PERIOD")
 #: view shows these and carries on, the snapshot reports them.
 BOARD_ERRORS = (
     TransactionError,
+    AdapterError,
     BusError,
     BoardError,
     BlockSizeError,

@@ -17,8 +17,8 @@ from typing import Protocol
 from fw1394.watch.controls import Controller, command_for_key
 from fw1394.watch.view import Line, Style
 
-Render = Callable[[Controller, float], list[Line]]
-"""Lines of the screen for a controller and the refresh rate achieved (Hz)."""
+Render = Callable[[Controller, float, int | None], list[Line]]
+"""Lines of the screen for a controller, the refresh rate achieved (Hz) and the width."""
 
 
 class Screen(Protocol):
@@ -45,7 +45,7 @@ def run_loop(
     last = clock()
     achieved = 0.0
     while True:
-        draw(screen, render(controller, achieved), attributes)
+        draw(screen, render(controller, achieved, screen.getmaxyx()[1] - 1), attributes)
         screen.timeout(max(0, round((last + period - clock()) * 1000)))
         key = screen.getch()
         if key != -1:

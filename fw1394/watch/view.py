@@ -7,6 +7,7 @@ test of the snapshot is a test of what the terminal shows.
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
@@ -72,10 +73,29 @@ COLUMNS = (
 )
 
 
-def table_row(cells: Sequence[str], marker: str = " ") -> str:
+#: Columns a narrow terminal loses first: conversions whose raw value stays shown.
+NARROW_DROPS = ("pot-mm", "cnt/s", "motor-V", "cur-mA", "lim-mA", "gain", "mode", "period")
+ALL_COLUMNS = tuple(range(len(COLUMNS)))
+
+
+def table_row(cells: Sequence[str], marker: str = " ", shown: Sequence[int] = ALL_COLUMNS) -> str:
     """One line of the channel table; ``marker`` flags the selected row."""
-    padded = (cell.rjust(width) for cell, (_, width) in zip(cells, COLUMNS, strict=True))
-    return marker + " ".join(padded)
+    return marker + " ".join(cells[i].rjust(COLUMNS[i][1]) for i in shown)
+
+
+def table_width(shown: Sequence[int] = ALL_COLUMNS) -> int:
+    return 1 + sum(COLUMNS[i][1] for i in shown) + len(shown) - 1
+
+
+def columns_for(width: int | None) -> tuple[int, ...]:
+    """The table columns that fit ``width`` characters (None: all of them)."""
+    shown = list(ALL_COLUMNS)
+    names = [name.strip() for name, _ in COLUMNS]
+    for name in NARROW_DROPS:
+        if width is None or table_width(shown) <= width:
+            break
+        shown.remove(names.index(name))
+    return tuple(shown)
 
 
 TABLE_HEADER = table_row([name for name, _ in COLUMNS])
@@ -87,30 +107,61 @@ def view_lines(
     conversions: Conversions,
     selected: tuple[int, int] | None = None,
     footer: Sequence[Line] = (),
+    width: int | None = None,
+    notices: Sequence[Line] = (),
 ) -> list[Line]:
-    """The whole screen; ``selected`` is (panel index, axis) of the highlighted row."""
-    lines = [Line(title, Style.TITLE)]
+    """The whole screen; ``selected`` is (panel index, axis) of the highlighted row.
+
+    ``width`` (None: unlimited) is the terminal's: the channel table drops its
+    conversion columns to fit and says which, other lines wrap, nothing is cut.
+    ``notices`` follow the title.
+    """
+    shown = columns_for(width)
+    lines = [Line(title, Style.TITLE), *notices]
     for index, panel in enumerate(panels):
         axis = selected[1] if selected is not None and selected[0] == index else None
         lines.append(Line(""))
-        lines.extend(panel_lines(panel, conversions, axis))
+        lines.extend(panel_lines(panel, conversions, axis, shown))
+    if shown != ALL_COLUMNS and any(panel.reading for panel in panels):
+        hidden = " ".join(COLUMNS[i][0].strip() for i in ALL_COLUMNS if i not in shown)
+        lines.append(Line(""))
+        lines.append(
+            Line(f"columns hidden to fit {width}: {hidden} (all need {table_width()})", Style.DIM)
+        )
     if footer:
         lines.append(Line(""))
         lines.extend(footer)
-    return lines
+    return lines if width is None else wrapped(lines, width)
+
+
+def wrapped(lines: Sequence[Line], width: int) -> list[Line]:
+    """``lines`` with each longer than ``width`` broken at spaces (indented after the first)."""
+    out = []
+    for line in lines:
+        if len(line.text) <= width:
+            out.append(line)
+            continue
+        indent = " " * (len(line.text) - len(line.text.lstrip()) + 2)
+        parts = textwrap.wrap(line.text, width, subsequent_indent=indent, break_long_words=True)
+        out.extend(Line(part, line.style) for part in parts)
+    return out
 
 
 def panel_lines(
-    panel: BoardPanel, conversions: Conversions, selected_axis: int | None = None
+    panel: BoardPanel,
+    conversions: Conversions,
+    selected_axis: int | None = None,
+    shown: Sequence[int] = ALL_COLUMNS,
 ) -> list[Line]:
     reading = panel.reading
     if reading is None:
         lines = [Line(f"node {panel.node}  {panel.kind}  (no reading yet)", Style.HEADER)]
     else:
         lines = [Line(board_summary(reading), Style.HEADER), watchdog_line(reading)]
-        lines.append(Line(TABLE_HEADER, Style.HEADER))
+        lines.append(Line(table_row([name for name, _ in COLUMNS], shown=shown), Style.HEADER))
         for channel in reading.channels:
-            lines.append(channel_line(channel, conversions, channel.axis == selected_axis))
+            selected = channel.axis == selected_axis
+            lines.append(channel_line(channel, conversions, selected, shown))
     if panel.problem:
         lines.append(Line(f"  ! {panel.problem}", Style.ALERT))
     return lines
@@ -141,7 +192,12 @@ def watchdog_line(reading: BoardReading) -> Line:
     return Line(text, Style.ALERT if alert else Style.NORMAL)
 
 
-def channel_line(channel: ChannelReading, conversions: Conversions, selected: bool) -> Line:
+def channel_line(
+    channel: ChannelReading,
+    conversions: Conversions,
+    selected: bool,
+    shown: Sequence[int] = ALL_COLUMNS,
+) -> Line:
     settings = channel.pot_settings
     if settings is None:
         milliamps, mode, gain = "?", "?", "?"
@@ -171,7 +227,7 @@ def channel_line(channel: ChannelReading, conversions: Conversions, selected: bo
         mode,
         gain,
     ]
-    text = table_row(cells, ">" if selected else " ")
+    text = table_row(cells, ">" if selected else " ", shown)
     if selected:
         return Line(text, Style.SELECTED)
     return Line(text, Style.ALERT if channel.fault or channel.overflow else Style.NORMAL)

@@ -178,8 +178,13 @@ def test_cli_bus_lifecycle(capsys: pytest.CaptureFixture[str]) -> None:
     try:
         assert main(["bus", "up", "--name", name, "--nodes", "2", *FAST_ARGS]) == 0
         table = capsys.readouterr().out.splitlines()
-        assert table[0].split() == ["PHY", "ROLE", "BOARD", "PID", "ADDRESS"]
-        assert [row.split()[:3] for row in table[1:]] == [["0", "node", "0"], ["1", "node", "1"]]
+        assert table[0].split() == ["PHY", "ROLE", "KIND", "GEN", "BOARD", "PID", "ADDRESS"]
+        # The two nodes, then the bus's host adapter.
+        assert [row.split()[:3] for row in table[1:]] == [
+            ["0", "node", "memory"],
+            ["1", "node", "memory"],
+            ["2", "adapter", "-"],
+        ]
         assert main(["write", "--name", name, "1", "0x40", "0xabc"]) == 0
         assert main(["read", "--name", name, "1", "0x40", "--json"]) == 0
         assert '"data": "00000abc"' in capsys.readouterr().out
@@ -195,14 +200,14 @@ def test_cli_bus_lifecycle(capsys: pytest.CaptureFixture[str]) -> None:
         assert main(["read", "--name", name, "9", "0x0"]) == 2
         assert "no node 9" in capsys.readouterr().err
         assert main(["bus", "status", "--name", name]) == 0
-        assert "2 members" in capsys.readouterr().out
+        assert "3 members" in capsys.readouterr().out
         assert main(["bus", "reset", "--name", name]) == 0
         assert "->" in capsys.readouterr().out
         # Bringing it up again is refused, and the running bus is left as it was.
         assert main(["bus", "up", "--name", name, "--nodes", "1", *FAST_ARGS]) == 2
         assert "already up" in capsys.readouterr().err
         assert main(["bus", "status", "--name", name]) == 0
-        assert "2 members" in capsys.readouterr().out
+        assert "3 members" in capsys.readouterr().out
     finally:
         assert main(["bus", "down", "--name", name]) == 0
     assert wait_until_gone(name) == []

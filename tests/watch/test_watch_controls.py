@@ -259,11 +259,13 @@ def test_live_loop_keys_refresh_and_quit(robot: Robot) -> None:
     # It waits for keys until the next refresh is due, 100 ms after the last one.
     assert max(screen.delays) == 100 and min(screen.delays) >= 0
     last = screen.frames[-1]
-    assert last[0].startswith("fw1394 watch  bus test  2 board(s)  10.0 Hz  holding 1 amplifier")
+    assert last[0] == "fw1394 watch  bus test  2 board(s)  10.0 Hz"
+    # The board reports the amplifier on: the watchdog (off here) did not trip.
+    assert last[1].startswith("holding 1 of 1 amplifier(s) enabled here on, feeding the watchdog")
     assert any(line.startswith("> 1  ON   -   *") for line in last)
     assert "node 0 ch 1: motor command 0x83e8 (+1000)" in last
     assert last[-1].startswith("keys:")
-    assert "dt 4915200 clk (100.000 ms)" in last[2]  # refreshed every 100 ms of board time
+    assert "dt 4915200 clk (100.000 ms)" in last[3]  # refreshed every 100 ms of board time
     assert robot.arm.status & 0xFF == 1
     assert robot.arm.axis_state(1).velocity_rad_s > 0  # the motor was running
     assert robot.controller.shutdown()[1]

@@ -16,7 +16,8 @@ scapy is needed only here; nothing else in fw1394 imports it.
 from __future__ import annotations
 
 from collections.abc import Iterable
-from typing import Any, ClassVar
+from pathlib import Path
+from typing import Any, ClassVar, NamedTuple
 
 from construct import Struct
 from scapy.config import conf
@@ -28,12 +29,13 @@ from fw1394.capture.formats import pseudo_header
 from fw1394.capture.formats.eth1394_udp import classify
 from fw1394.capture.formats.record import RecordType
 from fw1394.packets import LAYOUTS, PacketError
-from fw1394.packets.accessors import TCODE
+from fw1394.packets.accessors import DESTINATION_ID, TCODE
 from fw1394.packets.ack import ACK_LAYOUT
 from fw1394.packets.bitfields import FlatField, flatten
 from fw1394.packets.eth1394 import CONTROL_WORD, EXTRA_BYTES, EXTRA_SIZE, UDP_PORT
 from fw1394.packets.fields import BitField as LayoutBit
 from fw1394.packets.phy import PHY_CLASSES, phy_class_of
+from fw1394.transport.config import DEFAULT_BUS
 
 KERNEL_NAMES = {"destination_id": "dst_id", "source_id": "src_id"}
 _HEX = {"dst_id", "src_id", "offset", "quadlet_data", "header_crc", "reserved"}
@@ -221,6 +223,44 @@ class Eth1394Response(Eth1394):
         return FW1394 if payload else Raw
 
 
+class Answer(NamedTuple):
+    """What came back for a packet :func:`sr1` sent: the ack and the response (None: silence)."""
+
+    ack: FW1394Ack | None
+    response: Packet | None
+
+
+def sr1(
+    packet: Packet | bytes,
+    *,
+    node: int | None = None,
+    bus: str = DEFAULT_BUS,
+    wait: float = 0.5,
+    root: Path | None = None,
+) -> Answer:
+    """Put ``packet`` on bus ``bus`` as its host adapter; the ack and response it got.
+
+    Like scapy's ``sr1`` for a virtual 1394 bus: the bytes of ``packet`` go out
+    as they are (a CRC left at 0 stays wrong, which is the point of a
+    malformed packet), to physical ID ``node`` or the one in its ``dst_id``.
+    The response comes back as an :class:`FW1394` layer. Needs the adapter
+    of ``fw1394 bus up``.
+    """
+    from fw1394.host.adapter_port import AdapterPort
+    from fw1394.packets.ack import ack_byte
+    from fw1394.packets.nodeid import phy_of
+
+    raw = bytes(packet)
+    if node is None:
+        if len(raw) < DESTINATION_ID.end:
+            raise ValueError(f"a {len(raw)}-byte packet names no destination: give node=")
+        node = phy_of(DESTINATION_ID.of_bytes(raw))
+    with AdapterPort(bus, root=root) as port:
+        reply = port.send_packet(node, raw, wait)
+    ack = None if reply.ack < 0 else FW1394Ack(bytes([ack_byte(reply.ack)]))
+    return Answer(ack, FW1394(reply.data) if reply.data else None)
+
+
 conf.l2types.register(pseudo_header.LINKTYPE_FW1394, FW1394Capture)
 bind_layers(UDP, Eth1394, dport=UDP_PORT)
 bind_layers(UDP, Eth1394, sport=UDP_PORT)
@@ -230,10 +270,12 @@ __all__ = [
     "ASYNC_WITH_CRC",
     "FW1394",
     "PHY_LAYERS",
+    "Answer",
     "Eth1394",
     "Eth1394Request",
     "Eth1394Response",
     "FW1394Ack",
     "FW1394Capture",
     "FW1394Phy",
+    "sr1",
 ]

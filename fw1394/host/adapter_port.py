@@ -1,0 +1,184 @@
+"""A :class:`~fw1394.host.port.Port` through the bus's host adapter.
+
+The adapter (:mod:`fw1394.transport.adapter`) is the bus's one host node;
+an :class:`AdapterPort` is a program's handle on it, as a ``/dev/fw*`` file
+is on a PC's link: opening and closing it causes no bus reset. Blocking
+calls (:meth:`AdapterPort.read_quadlet` ...) make it a Port for
+:class:`~fw1394.host.board.Board`; :meth:`AdapterPort.start` and
+:meth:`AdapterPort.wait` keep several transactions outstanding at once.
+"""
+
+from __future__ import annotations
+
+import itertools
+import socket
+from pathlib import Path
+from typing import Self
+
+from fw1394.engine import FailureReason, TransactionFailed
+from fw1394.transport.adapter_protocol import (
+    NONE,
+    FrameBuffer,
+    Op,
+    Reply,
+    Request,
+    Status,
+    parse_reply,
+)
+from fw1394.transport.bus_host import TransactionError
+from fw1394.transport.config import DEFAULT_BUS
+from fw1394.transport.runtime import adapter_socket, bus_dir
+from fw1394.transport.wire import NO_PHY, MemberInfo, parse_table
+
+
+class AdapterError(RuntimeError):
+    """The adapter cannot be reached, or would not run a request."""
+
+
+class NoAdapterError(AdapterError):
+    """No adapter listens for this bus on this machine."""
+
+
+class AdapterPort:
+    """Transactions on bus ``name`` as its host adapter, shared with other programs.
+
+    ``timeout`` bounds the wait for each reply (the adapter's own ack and
+    split timeouts end a transaction long before it).
+    """
+
+    def __init__(
+        self,
+        name: str = DEFAULT_BUS,
+        *,
+        root: Path | None = None,
+        path: Path | None = None,
+        timeout: float = 10.0,
+    ) -> None:
+        self.name = name
+        self.path = path or adapter_socket(bus_dir(name, root))
+        self.timeout = timeout
+        sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        try:
+            sock.connect(str(self.path))
+        except (FileNotFoundError, ConnectionRefusedError):
+            sock.close()
+            raise NoAdapterError(
+                f"no host adapter for bus {name!r} on this machine (start the bus with "
+                f"fw1394 bus up --name {name})"
+            ) from None
+        except OSError as error:
+            sock.close()
+            raise AdapterError(f"cannot open the adapter of bus {name!r}: {error}") from None
+        sock.settimeout(timeout)
+        self._sock = sock
+        self._frames = FrameBuffer()
+        self._numbers = itertools.count(1)
+        self._replies: dict[int, Reply] = {}
+        #: The bus generation and the adapter's physical ID, as of the last reply.
+        self.generation = 0
+        self.phy_id: int | None = None
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        self._sock.close()
+
+    # -- requests, outstanding at once --------------------------------------------------
+    def start(self, op: Op, node: int = 0, offset: int = 0, **fields: object) -> int:
+        """Send a request; its number for :meth:`wait`."""
+        number = next(self._numbers) & 0xFFFFFFFF
+        request = Request(number, op, node, offset, **fields)  # type: ignore[arg-type]
+        try:
+            self._sock.sendall(request.pack())
+        except OSError as error:
+            raise AdapterError(f"the adapter of bus {self.name!r} went away: {error}") from None
+        return number
+
+    def wait(self, number: int) -> Reply:
+        """The reply to request ``number`` (replies to others are kept for their turn)."""
+        while number not in self._replies:
+            try:
+                data = self._sock.recv(1 << 17)
+            except TimeoutError:
+                raise AdapterError(
+                    f"no reply from the adapter of bus {self.name!r} in {self.timeout:g} s"
+                ) from None
+            except OSError as error:
+                raise AdapterError(f"the adapter of bus {self.name!r}: {error}") from None
+            if not data:
+                raise AdapterError(f"the adapter of bus {self.name!r} closed the connection")
+            for body in self._frames.feed(data):
+                reply = parse_reply(body)
+                self._replies[reply.request] = reply
+        reply = self._replies.pop(number)
+        self.generation = reply.generation
+        self.phy_id = None if reply.phy == NO_PHY else reply.phy
+        if reply.status is Status.refused:
+            raise AdapterError(reply.detail)
+        return reply
+
+    def result(self, number: int) -> bytes:
+        """The data of request ``number``'s reply; :class:`TransactionError` if it failed."""
+        reply = self.wait(number)
+        if reply.status is Status.failed:
+            raise TransactionError(failure_of(reply))
+        return reply.data
+
+    # -- the bus ------------------------------------------------------------------------
+    def members(self) -> tuple[MemberInfo, ...]:
+        """Every member of the bus in physical-ID order, the adapter among them."""
+        _, members = parse_table(self.wait(self.start(Op.info)).data)
+        return members
+
+    def nodes(self) -> list[tuple[int, MemberInfo]]:
+        """(physical ID, member) of every member but the adapter."""
+        members = self.members()
+        return [(phy, m) for phy, m in enumerate(members) if phy != self.phy_id]
+
+    def send_packet(self, destination: int, packet: bytes, wait: float = 0.5) -> Reply:
+        """Put ``packet`` on the bus as it is; the ack (``ack``) and response (``data``)."""
+        return self.wait(self.start(Op.send, destination, data=packet, wait=wait))
+
+    # -- the Port calls -----------------------------------------------------------------
+    def read_quadlet(self, node: int, offset: int) -> int:
+        data = self.result(self.start(Op.read, node, offset, length=4, quadlet=True))
+        return int.from_bytes(data, "big")
+
+    def read_block(self, node: int, offset: int, length: int) -> bytes:
+        return self.result(self.start(Op.read, node, offset, length=length))
+
+    def write_quadlet(self, node: int, offset: int, value: int) -> None:
+        data = value.to_bytes(4, "big")
+        self.result(self.start(Op.write, node, offset, quadlet=True, data=data))
+
+    def write_block(self, node: int, offset: int, data: bytes) -> None:
+        self.result(self.start(Op.write, node, offset, data=data))
+
+    def lock(
+        self, node: int, offset: int, extended_tcode: int, argument: bytes, data: bytes
+    ) -> bytes:
+        """The old value at ``offset`` after a lock of kind ``extended_tcode``."""
+        number = self.start(
+            Op.lock, node, offset, extended_tcode=extended_tcode, argument=argument, data=data
+        )
+        return self.result(number)
+
+
+def failure_of(reply: Reply) -> TransactionFailed:
+    """The engine's failure event a failed reply stands for."""
+    try:
+        reason = FailureReason(reply.reason)
+    except ValueError:
+        reason = FailureReason.response_timeout
+    rcode = None if reply.rcode == NONE else reply.rcode
+    return TransactionFailed(
+        reply.request,
+        reason,
+        rcode=rcode,
+        detail=reply.detail,
+        outcome_unknown=reply.outcome_unknown,
+    )

@@ -1,0 +1,211 @@
+"""What programs and a bus's host adapter say over its Unix socket.
+
+Every message is one frame: a big-endian u32 length, then a :data:`REQUEST`
+(client to adapter) or a :data:`REPLY` (adapter to client). A client may
+have many requests outstanding; each carries a number of the client's
+choosing that its reply repeats, and replies come in the order the
+transactions end, not the order they were asked.
+
+``info`` asks for the adapter's view of the bus: the reply's ``data`` is the
+member table (:func:`fw1394.transport.wire.pack_table`), the adapter's own
+physical ID is ``phy``. ``send`` puts the bytes of ``data`` on the bus as one
+packet to physical ID ``node`` and reports what came back within ``wait``
+seconds: the ack code (``ack``, -1 for none) and the response packet's
+bytes (``data``, empty for none).
+"""
+
+from __future__ import annotations
+
+import struct
+from dataclasses import dataclass
+from enum import IntEnum
+
+from construct import (
+    Float32b,
+    GreedyBytes,
+    Int8sb,
+    Int8ub,
+    Int16ub,
+    Int32ub,
+    Int64ub,
+    PascalString,
+    Prefixed,
+    Struct,
+)
+
+#: Length prefix of every frame.
+LENGTH = struct.Struct(">I")
+#: No message is longer: the longest block plus its headers, with room to spare.
+MAX_MESSAGE = 1 << 17
+#: "No ack" and "no rcode" in a reply.
+NONE = -1
+
+
+class Op(IntEnum):
+    info = 0
+    read = 1
+    write = 2
+    lock = 3
+    send = 4
+
+
+class Status(IntEnum):
+    ok = 0
+    #: The transaction ran and failed on the bus (``reason``, ``rcode``, ``detail``).
+    failed = 1
+    #: The adapter could not run it (bad request, not on the bus): ``detail`` says why.
+    refused = 2
+
+
+REQUEST = Struct(
+    "request" / Int32ub,  # the client's number, repeated in the reply
+    "op" / Int8ub,  # Op
+    "node" / Int8ub,  # physical ID (63: broadcast)
+    "extended_tcode" / Int16ub,  # lock: which lock
+    "offset" / Int64ub,  # 48-bit address offset
+    "length" / Int32ub,  # block read: bytes
+    "quadlet" / Int8ub,  # read/write: 1 for a quadlet transaction (write: the 4 data bytes)
+    "wait" / Float32b,  # send: seconds to listen for an answer
+    "argument" / Prefixed(Int32ub, GreedyBytes),  # lock argument
+    "data" / Prefixed(Int32ub, GreedyBytes),  # write/lock data, or the packet to send
+)
+
+REPLY = Struct(
+    "request" / Int32ub,
+    "status" / Int8ub,  # Status
+    "generation" / Int32ub,  # the bus generation when the transaction ended
+    "phy" / Int8ub,  # the adapter's physical ID (0xFF: not on the bus)
+    "ack" / Int8sb,  # send: ack code received, or NONE
+    "rcode" / Int8sb,  # failed: the response's rcode, or NONE
+    "outcome_unknown" / Int8ub,  # failed: 1 if a write or lock may have been performed
+    "reason" / PascalString(Int8ub, "utf8"),  # failed: the engine's reason
+    "detail" / PascalString(Int16ub, "utf8"),
+    "data" / Prefixed(Int32ub, GreedyBytes),  # read data, old lock value, table, response
+)
+
+
+@dataclass(frozen=True, slots=True)
+class Request:
+    request: int
+    op: Op
+    node: int = 0
+    offset: int = 0
+    length: int = 0
+    quadlet: bool = False
+    extended_tcode: int = 0
+    wait: float = 0.0
+    argument: bytes = b""
+    data: bytes = b""
+
+    def pack(self) -> bytes:
+        body: bytes = REQUEST.build(
+            {
+                "request": self.request,
+                "op": int(self.op),
+                "node": self.node,
+                "extended_tcode": self.extended_tcode,
+                "offset": self.offset,
+                "length": self.length,
+                "quadlet": int(self.quadlet),
+                "wait": self.wait,
+                "argument": self.argument,
+                "data": self.data,
+            }
+        )
+        return LENGTH.pack(len(body)) + body
+
+
+@dataclass(frozen=True, slots=True)
+class Reply:
+    request: int
+    status: Status
+    generation: int = 0
+    phy: int = 0xFF
+    ack: int = NONE
+    rcode: int = NONE
+    outcome_unknown: bool = False
+    reason: str = ""
+    detail: str = ""
+    data: bytes = b""
+
+    def pack(self) -> bytes:
+        body: bytes = REPLY.build(
+            {
+                "request": self.request,
+                "status": int(self.status),
+                "generation": self.generation & 0xFFFFFFFF,
+                "phy": self.phy,
+                "ack": self.ack,
+                "rcode": self.rcode,
+                "outcome_unknown": int(self.outcome_unknown),
+                "reason": self.reason,
+                "detail": self.detail[:0xFFFF],
+                "data": self.data,
+            }
+        )
+        return LENGTH.pack(len(body)) + body
+
+
+class ProtocolError(ValueError):
+    """Bytes that are not a message of this protocol."""
+
+
+def parse_request(body: bytes) -> Request:
+    try:
+        parsed = REQUEST.parse(body)
+        op = Op(parsed.op)
+    except Exception as error:  # construct raises many kinds; all mean "not a request"
+        raise ProtocolError(f"not an adapter request: {error}") from None
+    return Request(
+        parsed.request,
+        op,
+        parsed.node,
+        parsed.offset,
+        parsed.length,
+        bool(parsed.quadlet),
+        parsed.extended_tcode,
+        parsed.wait,
+        parsed.argument,
+        parsed.data,
+    )
+
+
+def parse_reply(body: bytes) -> Reply:
+    try:
+        parsed = REPLY.parse(body)
+        status = Status(parsed.status)
+    except Exception as error:
+        raise ProtocolError(f"not an adapter reply: {error}") from None
+    return Reply(
+        parsed.request,
+        status,
+        parsed.generation,
+        parsed.phy,
+        parsed.ack,
+        parsed.rcode,
+        bool(parsed.outcome_unknown),
+        parsed.reason,
+        parsed.detail,
+        parsed.data,
+    )
+
+
+class FrameBuffer:
+    """Bytes from a stream socket in, whole message bodies out."""
+
+    def __init__(self) -> None:
+        self._buffer = bytearray()
+
+    def feed(self, data: bytes) -> list[bytes]:
+        buffer = self._buffer
+        buffer += data
+        bodies = []
+        while len(buffer) >= LENGTH.size:
+            (size,) = LENGTH.unpack_from(buffer)
+            if size > MAX_MESSAGE:
+                raise ProtocolError(f"a message of {size} bytes is longer than {MAX_MESSAGE}")
+            if len(buffer) < LENGTH.size + size:
+                break
+            bodies.append(bytes(buffer[LENGTH.size : LENGTH.size + size]))
+            del buffer[: LENGTH.size + size]
+        return bodies
