@@ -112,9 +112,8 @@ def print_members(rows: list[dict[str, Any]], as_json: bool) -> None:
         print_json_lines(rows)
         return
     counted = any("dropped" in row for row in rows)
-    table = [("PHY", "ROLE", "KIND", "GEN", "BOARD", "PID", "ADDRESS")]
-    if counted:
-        table[0] += ("DROPPED",)
+    heading: tuple[str, ...] = ("PHY", "ROLE", "KIND", "GEN", "BOARD", "PID", "ADDRESS")
+    table = [heading + (("DROPPED",) if counted else ())]
     for row in rows:
         board = "-" if row["board_id"] is None else str(row["board_id"])
         kind = row.get("kind") or ("-" if row["role"] != "node" else "unknown")

@@ -104,6 +104,7 @@ def _transact(args: argparse.Namespace, what: str, action: Any) -> Any:
 
     _check(args)
     config = bus_config(args)
+    reaching: tuple[type[Exception], ...] = (*port_errors(), ValueError)
     with open_port(args) as port:
         try:
             nodes = dict(port.nodes())
@@ -114,7 +115,7 @@ def _transact(args: argparse.Namespace, what: str, action: Any) -> Any:
                     "is it up? fw1394 bus up --nodes N)"
                 )
             return action(port)
-        except (*port_errors(), ValueError) as error:  # ValueError: a block too long here
+        except reaching as error:  # ValueError: a block too long for this bus
             raise CliError(str(error)) from None
         except TransactionError as error:
             failure = {"reason": str(error.reason)}

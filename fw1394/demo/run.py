@@ -91,7 +91,11 @@ def run_demo(
     """
     config = BusConfig(name=bus_name or f"demo-{os.getpid()}")
     result = DemoResult(bus_name=config.name)
-    with LaunchedBus(config, len(BOARDS), board=",".join(BOARDS)) as bus, _tap(config, capture):
+    # With the bus's host adapter, so `fw1394 read`/`watch` can share it while the demo runs.
+    launched = LaunchedBus(
+        config, len(BOARDS), board=",".join(BOARDS), node_arguments=("--adapter",)
+    )
+    with launched as bus, _tap(config, capture):
         bus.wait_members()
         with BusPort(config) as port:
             nodes = [phy for phy, member in port.nodes() if not member.host]

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from test_bus_membership import TAG, FakeBus, settled
+from fake_bus import TAG, FakeBus, settled
 
 from fw1394.transport.membership import BusReset, Role
 from fw1394.transport.wire import EVERY_MEMBER, FrameHeader, FrameKind
