@@ -44,7 +44,7 @@ def test_bus_status_names_kinds_generation_and_the_adapter(bus: AdapterBus) -> N
     assert {r["generation"] for r in rows} == {generation}
     assert rows[-1]["pid"] == bus.adapter_pid
     text = bus.fw1394("bus", "status").stdout.splitlines()
-    assert text[1].split() == ["PHY", "ROLE", "KIND", "GEN", "BOARD", "PID", "ADDRESS"]
+    assert text[1].split() == ["PHY", "ROLE", "KIND", "GEN", "BOARD", "PID", "ADDRESS", "DROPPED"]
     assert text[2].split()[:4] == ["0", "node", "qla1", str(generation)]
     assert text[5].split()[:3] == ["3", "adapter", "-"]
 
