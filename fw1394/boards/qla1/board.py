@@ -4,8 +4,10 @@ The personality answers what the JHU host library (Amp1394) asks during
 start-up and in its real-time loop: the board registers, 4 motor channels,
 the real-time read and write blocks of firmware revisions 1..9, the
 watchdog, hub space and the CSR / configuration-ROM window. Offsets are
-decoded like the firmware does: bits 15..0 as a quadlet index, except in
-the CSR window 0xFFFF_F000_0xxx, which is byte-addressed. Unmapped reads
+decoded like the firmware does, through the FireWire decoding of the register
+map (:mod:`fw1394.boards.qla1.regmap`): bits 15..0 as a quadlet index, bits
+11..8 ignored in the MAIN space, except in the CSR window 0xFFFF_F000_0xxx,
+which is byte-addressed. Unmapped reads
 return 0 and writes there vanish: like the real board, this one never
 refuses a request (only offsets beyond 48 bits and values beyond 32 bits,
 which no packet can carry, raise).
@@ -216,10 +218,13 @@ class Qla1Board:
 
     @staticmethod
     def _block_indices(offset: int, count: int) -> list[int]:
-        # Block transfers step bits 11..0 and keep the space nibble (they wrap within it).
+        # Block transfers step bits 11..0 and keep the space nibble (they wrap within
+        # it); each step is decoded again, so MAIN-space steps alias like single reads.
         index = _register_address(offset)
         space_bits = index & ~BLOCK_INDEX_MASK
-        return [space_bits | ((index + n) & BLOCK_INDEX_MASK) for n in range(count)]
+        return [
+            _register_address(space_bits | ((index + n) & BLOCK_INDEX_MASK)) for n in range(count)
+        ]
 
     def _unmapped(self, index: int) -> int:
         if DEFECT_UNMAPPED_ADDRESS_ERROR in self.defects:
@@ -244,7 +249,7 @@ class Qla1Board:
 
     def _read_main(self, index: int) -> int:
         channel, register = (index >> 4) & 0xF, index & 0xF
-        if index & 0x0F00 or channel > CHANNELS:
+        if channel > CHANNELS:
             return self._unmapped(index)
         if channel == 0:
             return self._read_board_register(register)
@@ -252,7 +257,7 @@ class Qla1Board:
 
     def _write_main(self, index: int, value: int) -> None:
         channel, register = (index >> 4) & 0xF, index & 0xF
-        if index & 0x0F00 or channel > CHANNELS:
+        if channel > CHANNELS:
             return
         if channel == 0:
             self._write_board_register(register, value)
