@@ -142,13 +142,15 @@ class Trial:
     def _run(self, batch: list[_Sent], now: float | None = None) -> list[Violation]:
         now = self.clock() if now is None else now
         expect = self.reference.expect
-        expected = [expect(sent.wire.packet, sent.wire.damaged, now) for sent in batch]
+        expected = [
+            expect(sent.wire.packet, sent.wire.damaged, now, raw=sent.wire.raw) for sent in batch
+        ]
         if self.target.needs_fence and batch:
             visibility = self.target.visibility
             if is_silent(visible(expected[-1][0], visibility)):
                 fence = _Sent("probe", self._probe(), "")
                 batch.append(fence)
-                expected.append(expect(fence.wire.packet, False, now))
+                expected.append(expect(fence.wire.packet, False, now, raw=fence.wire.raw))
         stream = self.stream
         for sent in batch:
             stream.append(Entry(sent.role, now, sent.wire.raw, sent.label))

@@ -302,7 +302,8 @@ class EthernetPort:
     def _hub_round_waiting(self, request: BlockReadRequest) -> bool:
         hub = self.board.hub
         return (
-            _ethernet_address(request.offset) == HUB_MEMORY_BASE
+            self.hub_read_wait > 0
+            and _ethernet_address(request.offset) == HUB_MEMORY_BASE
             and bool(hub.board_mask)
             and not hub.complete
         )

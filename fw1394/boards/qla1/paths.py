@@ -52,6 +52,9 @@ class Path:
     policy: ResponderPolicy
     #: The bytes as this path reads them: (request or None, damaged by CRC or length).
     read: Callable[[bytes], tuple[AsyncPacket | None, bool]]
+    #: CRC and length problems count (FireWire acks them ack_data_error); the
+    #: Ethernet path never looks at a CRC.
+    checks_crc: bool
     #: The destination bus a request must name (None: any; the FireWire link ignores it).
     bus: int | None
     #: Broadcast reads are answered (the Ethernet hub does, with no-forward set).
@@ -117,6 +120,7 @@ FIREWIRE_PATH = Path(
     decoding=REGISTER_MAP.decodings[FIREWIRE],
     policy=JHU_FIRMWARE,
     read=decode_received,
+    checks_crc=True,
     bus=None,
     answers_broadcast_reads=False,
     response_crcs=True,
@@ -129,8 +133,10 @@ FIREWIRE_PATH = Path(
 ETHERNET_PATH = Path(
     name=ETHERNET,
     decoding=REGISTER_MAP.decodings[ETHERNET],
-    policy=JHU_FIRMWARE,
+    # The bus ID is checked (0x3FF) before anything reaches the board.
+    policy=replace(JHU_FIRMWARE, ignore_bus_id=False),
     read=read_ethernet,
+    checks_crc=False,
     bus=LOCAL_BUS,
     answers_broadcast_reads=True,
     response_crcs=False,
