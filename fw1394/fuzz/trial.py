@@ -20,6 +20,7 @@ from fw1394.fuzz.judge import Violation, describe, difference, is_silent, visibl
 from fw1394.fuzz.offsets import OffsetModel
 from fw1394.fuzz.reference import Certainty, Reference
 from fw1394.fuzz.target import Observed, Target, TargetCrash, Wire
+from fw1394.fuzz.tunnel import tlabel_of
 from fw1394.packets import (
     AckCode,
     AsyncPacket,
@@ -96,7 +97,7 @@ class Trial:
         batch = [_Sent("case", wire, label)]
         # Our own packets never share the case's label: a transport without acks
         # (Eth1394) tells replies apart by label alone.
-        self._avoid = getattr(wire.packet, "tlabel", -1)
+        self._avoid = _label_in(wire)
         readback = self._readback(wire.packet)
         if readback is not None:
             batch.append(_Sent("readback", readback, ""))
@@ -123,7 +124,7 @@ class Trial:
         found: list[Violation] = []
         for entry in entries:
             wire = wire_of(entry.raw)
-            self._avoid = getattr(wire.packet, "tlabel", -1)
+            self._avoid = _label_in(wire)
             batch = [_Sent(entry.role, wire, entry.label)]
             found += self._run(batch, entry.time if keep_times else None)
             if self.broken:
@@ -289,6 +290,12 @@ class Trial:
             length = min(max(len(packet.data), 4), READBACK_LIMIT) & ~3
             return self._read(packet.offset, length)
         return self._read(packet.offset)
+
+
+def _label_in(wire: Wire) -> int:
+    """The label a node could read in the case's bytes (even when it decodes no packet)."""
+    label = tlabel_of(wire.raw)
+    return -1 if label is None else label
 
 
 def wire_of(raw: bytes) -> Wire:
