@@ -19,6 +19,8 @@ names are left for the layers that receive the same set.
 
 from __future__ import annotations
 
+import functools
+import struct
 from collections.abc import Callable
 
 from fw1394.boards.qla1 import rt_blocks as rt
@@ -68,8 +70,8 @@ BOARD_DEFECTS = frozenset(
 )
 
 OFFSET_LIMIT = 1 << 48
-#: The register-bus address of an offset that is not in the CSR window.
-_register_address = FIREWIRE_DECODING.address
+#: The register-bus address of an offset (decoded once per offset: they repeat).
+_register_address = functools.lru_cache(maxsize=4096)(FIREWIRE_DECODING.address)
 #: Two amplifier temperatures (bits 15..8 and 7..0) in the board's raw units.
 TEMPERATURE_READING = 0x3C3C
 
@@ -193,7 +195,8 @@ class Qla1Board:
     def write_block(self, offset: int, data: bytes) -> None:
         _check_offset(offset)
         # Only whole quadlets reach the registers, as in the firmware.
-        words = [int.from_bytes(data[n : n + 4], "big") for n in range(0, len(data) - 3, 4)]
+        count = len(data) // 4
+        words = list(struct.unpack_from(f">{count}I", data)) if count else []
         if not words:
             return
         if in_csr_window(offset):
@@ -413,4 +416,4 @@ def _space(index: int) -> int:
 
 
 def _quadlets_to_bytes(words: list[int]) -> bytes:
-    return b"".join(word.to_bytes(4, "big") for word in words)
+    return struct.pack(f">{len(words)}I", *words)

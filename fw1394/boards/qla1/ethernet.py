@@ -24,7 +24,8 @@ responses carry zero CRCs.
 from __future__ import annotations
 
 import contextlib
-from dataclasses import dataclass, field, replace
+import functools
+from dataclasses import dataclass, field
 
 from fw1394.boards.qla1.board import Qla1Board
 from fw1394.boards.qla1.firewire import (
@@ -33,6 +34,7 @@ from fw1394.boards.qla1.firewire import (
     hub_broadcast,
     is_hub_query,
 )
+from fw1394.boards.qla1.framing import extra_bytes, split_request
 from fw1394.boards.qla1.paths import ETHERNET_PATH, zero_crc_bytes
 from fw1394.boards.qla1.regs import (
     HUB_MEMORY_BASE,
@@ -55,10 +57,7 @@ from fw1394.packets.asynchronous import tcode_of
 from fw1394.packets.enums import TCode
 from fw1394.packets.eth1394 import (
     Eth1394Error,
-    Eth1394Response,
     ExtraBytes,
-    build_response,
-    parse_request,
 )
 from fw1394.packets.fast import decode_packet
 from fw1394.packets.nodeid import BROADCAST_PHY, LOCAL_BUS
@@ -66,7 +65,7 @@ from fw1394.packets.nodeid import node_id as node_id_of
 
 HostAddress = tuple[str, int]
 #: What an offset reaches over this path (no CSR window: only bits 15..0 arrive).
-_ethernet_address = ETHERNET_PATH.decoding.address
+_ethernet_address = functools.lru_cache(maxsize=4096)(ETHERNET_PATH.decoding.address)
 #: Quadlet 2 of the unasked broadcast-read response: the hub memory offset.
 BROADCAST_RESPONSE_Q2 = HUB_MEMORY_BASE
 #: ETH_STATUS write bit that clears the sticky error flags.
@@ -115,12 +114,9 @@ def datagram(reply: Reply, processed_at: float, sent_at: float) -> bytes:
     def ticks(seconds: float) -> int:
         return min(max(int(seconds * TICKS_PER_SECOND), 0), 0xFFFF)
 
-    extra = replace(
-        reply.extra,
-        receive_ticks=ticks(processed_at - reply.received_at),
-        total_ticks=ticks(sent_at - reply.received_at),
-    )
-    return build_response(Eth1394Response(reply.packet, extra))
+    received = reply.received_at
+    timers = ticks(processed_at - received), ticks(sent_at - received)
+    return reply.packet + extra_bytes(reply.extra, *timers)
 
 
 def decode_request(raw: bytes) -> Request | None:
@@ -175,7 +171,7 @@ class EthernetPort:
     # -- requests from the host ------------------------------------------------------------
     def receive(self, payload: bytes, sender: HostAddress, now: float) -> list[Action]:
         try:
-            framed = parse_request(payload)
+            framed = split_request(payload)
         except Eth1394Error:
             return []
         packet = decode_request(framed.packet)

@@ -12,6 +12,7 @@ apart.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
@@ -82,7 +83,7 @@ class Path:
         broadcast (every board performs them); anything else the path took is the
         board's own.
         """
-        offset = self.decoding.address(packet.offset)
+        offset = _decoded(self.decoding, packet.offset)
         if isinstance(packet, _WRITES) and packet.destination_node == BROADCAST_PHY:
             return replace(packet, offset=offset) if offset != packet.offset else packet
         destination = node_id_of(responder_node, bus_of(packet.destination_id))
@@ -94,6 +95,11 @@ class Path:
             return response
         # The Ethernet path names {destination bus of the request, reply node}.
         return replace(response, source_id=node_id_of(reply_node, bus_of(request.destination_id)))
+
+
+@functools.lru_cache(maxsize=8192)
+def _decoded(decoding: Decoding, offset: int) -> int:
+    return decoding.address(offset)
 
 
 def read_ethernet(raw: bytes) -> tuple[AsyncPacket | None, bool]:
