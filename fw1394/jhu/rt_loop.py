@@ -10,7 +10,6 @@ those of jhu-eth1394.md §4.5-4.6.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -95,11 +94,11 @@ class RealTimeLoop:
             return dict.fromkeys((b.board_id for b in self.boards), None)
         query_tl = client.state.tl
         data = None
+        # The library sleeps a fixed few microseconds (per board) before its one
+        # receive; here the receive's own wait covers it, and ends as soon as the
+        # answer is in (a sleep that short lasts far longer on a busy machine).
         if not client.state.use_bridge:
-            time.sleep((3 + 38 * (len(self.boards) - 1)) * 1e-6)
             data = client.receive_broadcast_response(query_tl, size)
-        else:
-            time.sleep((10 + 10 * (len(self.boards) - 1)) * 1e-6)
         if data is None:
             hub = self.scan.node_of(client.state.hub_board)
             data = client.read_block_node(hub, HUB_MEMORY_BASE, size)
