@@ -45,7 +45,7 @@ def scan_log(port: int) -> list[str]:
             f"udp:127.0.0.1:{port}",
             "--receive-timeout",
             "0.5",
-        ],  # fmt: skip
+        ],
         capture_output=True,
         text=True,
         timeout=120,
