@@ -89,7 +89,13 @@ def register(subparsers: Any) -> None:
             sub.add_argument("count", type=integer, help="quadlets")
             sub.add_argument("data", type=integer, nargs="*", help="quadlets to write")
         if name == "rt":
-            sub.add_argument("--cycles", type=int, default=100)
+            sub.add_argument(
+                "--cycles",
+                type=int,
+                default=100,
+                help="loop cycles (default 100); each 50 are followed by 50 raw UDP "
+                "ping-pongs to the first board, the machine's floor, reported beside",
+            )
             sub.add_argument(
                 "--protocol", choices=("sequential", "broadcast-write", "broadcast-read-write")
             )
@@ -256,31 +262,21 @@ def _run_access(client: Any, scan: Any, args: argparse.Namespace) -> int:
 
 
 def _run_rt(client: Any, scan: Any, args: argparse.Namespace) -> int:
-    import time
-
-    from fw1394.jhu.rt_loop import RealTimeLoop
+    from fw1394.jhu.rt_loop import RealTimeLoop, measure
     from fw1394.jhu.scan import Protocol
 
+    if args.cycles < 1:
+        raise CliError(f"--cycles {args.cycles}: give 1 or more")
     protocol = Protocol(args.protocol) if args.protocol else None
-    loop = RealTimeLoop(client, scan, protocol)
-    good = 0
-    started = time.monotonic()
-    for _ in range(args.cycles):
-        blocks = loop.cycle()
-        good += all(block is not None for block in blocks.values())
-    elapsed = time.monotonic() - started
-    assert loop.protocol is not None
-    result = {
-        "protocol": loop.protocol.value,
-        "cycles": args.cycles,
-        "complete": good,
-        "mean_cycle_ms": 1e3 * elapsed / max(args.cycles, 1),
-    }
+    report = measure(RealTimeLoop(client, scan, protocol), args.cycles).as_dict()
     if args.json:
-        print(json.dumps(result))
+        print(json.dumps(report))
     else:
         print(
-            f"{args.cycles} cycles ({result['protocol']}): {good} complete, "
-            f"{result['mean_cycle_ms']:.3f} ms per cycle"
+            f"{report['cycles']} cycles ({report['protocol']}, {report['boards']} boards): "
+            f"{report['complete']} complete, {report['mean_cycle_ms']:.3f} ms per cycle "
+            f"({report['loop_hz']:.0f} Hz); raw UDP ping-pong {report['ping_pong_ms']:.3f} ms "
+            f"({report['ping_pong_hz']:.0f} Hz); client CPU "
+            f"{report['client_cpu_ms_per_cycle']:.3f} ms per cycle; load {report['load_1min']:.1f}"
         )
-    return 0 if good == args.cycles else 1
+    return 0 if report["complete"] == report["cycles"] else 1

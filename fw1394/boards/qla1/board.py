@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import functools
 import struct
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 from fw1394.boards.qla1 import rt_blocks as rt
 from fw1394.boards.qla1.channels import MotorChannel
@@ -153,6 +153,11 @@ class Qla1Board:
             return None
         return _quadlets_to_bytes(self.hub.image(self._now))
 
+    def store_hub_broadcast(self, words: Sequence[int]) -> None:
+        """Another board's block, written to hub memory (a register write: feeds the watchdog)."""
+        self.watchdog.clear_count(self._now)
+        self.hub.store_broadcast(words, self._now)
+
     # -- AddressSpace -------------------------------------------------------------------
 
     def set_time(self, ticks: int) -> None:
@@ -210,10 +215,10 @@ class Qla1Board:
         if space == Space.MAIN:
             self._rt_block_write(index, words)
             return
-        self.watchdog.clear_count(self._now)
         if space == Space.HUB and index == HUB_MEMORY_BASE:
-            self.hub.store_broadcast(words, self._now)
+            self.store_hub_broadcast(words)
             return
+        self.watchdog.clear_count(self._now)
         for target, value in zip(self._block_indices(offset, len(words)), words, strict=True):
             self._write_index(target, value)
 

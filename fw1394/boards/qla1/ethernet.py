@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import struct
 from dataclasses import dataclass, field
 
 from fw1394.boards.qla1.board import Qla1Board
@@ -78,6 +79,12 @@ STASH_LIMIT = 64
 _READS = (QuadletReadRequest, BlockReadRequest)
 _RESPONSE_TCODES = (TCode.read_quadlet_response, TCode.read_block_response)
 _WRITES = (QuadletWriteRequest, BlockWriteRequest)
+
+
+@functools.lru_cache(maxsize=64)
+def _quadlets(data: bytes) -> tuple[int, ...]:
+    # Every board of a rack stores the same broadcast: unpacked once.
+    return struct.unpack_from(f">{len(data) // 4}I", data)
 
 
 @dataclass(frozen=True)
@@ -293,7 +300,12 @@ class EthernetPort:
         return self._round_progress(now)
 
     def _store(self, packet: BlockWriteRequest, now: float) -> None:
-        self.responder.receive_packet(packet, now, damaged=False)
+        # A hub broadcast is a broadcast block write to hub memory: written as the
+        # responder would (clock first), without screening it again per board.
+        board, ticks = self.board, int(now * TICKS_PER_SECOND)
+        if ticks > board.now:
+            board.set_time(ticks)
+        board.store_hub_broadcast(_quadlets(packet.data))
 
     def _hub_round_waiting(self, request: BlockReadRequest) -> bool:
         hub = self.board.hub

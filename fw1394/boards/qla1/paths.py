@@ -102,6 +102,8 @@ def _decoded(decoding: Decoding, offset: int) -> int:
     return decoding.address(offset)
 
 
+# Every board of a rack reads the same multicast datagram: decode it once.
+@functools.lru_cache(maxsize=256)
 def read_ethernet(raw: bytes) -> tuple[AsyncPacket | None, bool]:
     """A request as EthernetIO reads it: leniently, and never damaged (no CRC is checked)."""
     try:
