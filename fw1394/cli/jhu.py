@@ -28,6 +28,10 @@ examples:
 firmware >= 9 (Ethernet-only mode, multicast) only inside a network namespace:
   ip netns add qla; ip -n qla link set lo up; ip -n qla route add 224.0.0.0/4 dev lo
   ip netns exec qla fw1394 jhu serve --boards 4 --firmware 9
+  (the real host's multicasts then come from 0.0.0.0, this host: answered like the
+  firmware answers any source address)
+replies that cannot be sent are reported once per cause on stderr; SIGTERM/SIGINT
+stop the server at once.
 """
 
 
