@@ -14,6 +14,8 @@ from fw1394.boards.qla1.framing import (
     request_datagram,
     split_request,
 )
+from fw1394.boards.qla1.paths import zero_crc_bytes
+from fw1394.packets import BlockReadResponse, QuadletReadResponse
 from fw1394.packets.eth1394 import (
     ControlWord,
     Eth1394Error,
@@ -24,6 +26,7 @@ from fw1394.packets.eth1394 import (
     build_response,
     parse_request,
 )
+from fw1394.packets.fast import encode_packet
 
 extras = st.builds(
     ExtraBytes,
@@ -74,3 +77,26 @@ def test_extra_bytes_are_build_response(
         extra.fpga_bus_generation,
         extra.no_forward_echo,
     )
+
+
+@given(
+    st.integers(0, 63),
+    st.integers(0, 0xFFFF),
+    st.one_of(st.none(), st.binary(min_size=1, max_size=64)),
+    st.integers(0, 0xFFFFFFFF),
+)
+def test_zero_crc_responses_are_the_packets_with_crcs_zero(
+    tlabel: int, source: int, data: bytes | None, quadlet: int
+) -> None:
+    response: QuadletReadResponse | BlockReadResponse
+    if data is None:
+        response = QuadletReadResponse(
+            destination_id=0xFFD0, tlabel=tlabel, source_id=source, quadlet_data=quadlet
+        )
+        reference = encode_packet(replace(response, header_crc=0))
+    else:
+        response = BlockReadResponse(
+            destination_id=0xFFD0, tlabel=tlabel, source_id=source, reserved=0x1000, data=data
+        )
+        reference = encode_packet(replace(response, header_crc=0, data_crc=0))
+    assert zero_crc_bytes(response) == reference

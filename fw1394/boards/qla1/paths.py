@@ -115,11 +115,19 @@ def read_ethernet(raw: bytes) -> tuple[AsyncPacket | None, bool]:
     return None, False
 
 
+#: Where a read response's header CRC sits: after quadlets 0..3.
+_HEADER_CRC = slice(16, 20)
+_NO_CRC = bytes(4)
+
+
 def zero_crc_bytes(response: Response) -> bytes:
     """A response as the firmware's Ethernet path sends it: both CRC quadlets 0."""
+    # Encoded as usual (the quick path), then the CRC quadlets cleared.
+    raw = bytearray(encode_packet(response))
+    raw[_HEADER_CRC] = _NO_CRC
     if isinstance(response, BlockReadResponse):
-        return encode_packet(replace(response, header_crc=0, data_crc=0))
-    return encode_packet(replace(response, header_crc=0))
+        raw[-4:] = _NO_CRC
+    return bytes(raw)
 
 
 #: The FireWire link (FireWire.v): the responder policy does all the screening.
