@@ -9,8 +9,11 @@ else that speaks Eth1394 on loopback.
 from __future__ import annotations
 
 import argparse
+import gc
 import json
+import signal
 import sys
+from types import FrameType
 from typing import Any
 
 from fw1394.cli.common import CliError, integer, print_table
@@ -25,6 +28,10 @@ examples:
 firmware >= 9 (Ethernet-only mode, multicast) only inside a network namespace:
   ip netns add qla; ip -n qla link set lo up; ip -n qla route add 224.0.0.0/4 dev lo
   ip netns exec qla fw1394 jhu serve --boards 4 --firmware 9
+  (the real host's multicasts then come from 0.0.0.0, this host: answered like the
+  firmware answers any source address)
+replies that cannot be sent are reported once per cause on stderr; SIGTERM/SIGINT
+stop the server at once.
 """
 
 
@@ -86,7 +93,13 @@ def register(subparsers: Any) -> None:
             sub.add_argument("count", type=integer, help="quadlets")
             sub.add_argument("data", type=integer, nargs="*", help="quadlets to write")
         if name == "rt":
-            sub.add_argument("--cycles", type=int, default=100)
+            sub.add_argument(
+                "--cycles",
+                type=int,
+                default=100,
+                help="loop cycles (default 100); each 50 are followed by 50 raw UDP "
+                "ping-pongs to the first board, the machine's floor, reported beside",
+            )
             sub.add_argument(
                 "--protocol", choices=("sequential", "broadcast-write", "broadcast-read-write")
             )
@@ -127,16 +140,39 @@ def run_serve(args: argparse.Namespace) -> int:
         f"fw1394 jhu: {len(ids)} QLA boards {ids}, firmware {args.firmware} ({mode}), "
         f"on {', '.join(server.addresses)}",
         file=sys.stderr,
+        flush=True,
     )
-    with server:
-        try:
+
+    def stop(signum: int, frame: FrameType | None) -> None:
+        # Raised inside select(): the loop ends at once, not at its next timeout.
+        raise _Stopped
+
+    # Everything built so far lives as long as the process: keeping it out of the
+    # collector makes the exit after SIGTERM quick (no final sweep over it).
+    gc.freeze()
+    previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        with server:
             if args.duration is None:
                 server.serve_forever()
             else:
                 server.serve_for(args.duration)
-        except KeyboardInterrupt:
-            pass
+    except _Stopped:
+        pass
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    stats = server.stats
+    print(
+        f"fw1394 jhu: stopped after {stats.received} requests, {stats.sent} replies sent, "
+        f"{stats.refused} refused",
+        file=sys.stderr,
+    )
     return 0
+
+
+class _Stopped(Exception):
+    """SIGTERM or SIGINT ended ``jhu serve``."""
 
 
 def _client(args: argparse.Namespace) -> Any:
@@ -230,31 +266,21 @@ def _run_access(client: Any, scan: Any, args: argparse.Namespace) -> int:
 
 
 def _run_rt(client: Any, scan: Any, args: argparse.Namespace) -> int:
-    import time
-
-    from fw1394.jhu.rt_loop import RealTimeLoop
+    from fw1394.jhu.rt_loop import RealTimeLoop, measure
     from fw1394.jhu.scan import Protocol
 
+    if args.cycles < 1:
+        raise CliError(f"--cycles {args.cycles}: give 1 or more")
     protocol = Protocol(args.protocol) if args.protocol else None
-    loop = RealTimeLoop(client, scan, protocol)
-    good = 0
-    started = time.monotonic()
-    for _ in range(args.cycles):
-        blocks = loop.cycle()
-        good += all(block is not None for block in blocks.values())
-    elapsed = time.monotonic() - started
-    assert loop.protocol is not None
-    result = {
-        "protocol": loop.protocol.value,
-        "cycles": args.cycles,
-        "complete": good,
-        "mean_cycle_ms": 1e3 * elapsed / max(args.cycles, 1),
-    }
+    report = measure(RealTimeLoop(client, scan, protocol), args.cycles).as_dict()
     if args.json:
-        print(json.dumps(result))
+        print(json.dumps(report))
     else:
         print(
-            f"{args.cycles} cycles ({result['protocol']}): {good} complete, "
-            f"{result['mean_cycle_ms']:.3f} ms per cycle"
+            f"{report['cycles']} cycles ({report['protocol']}, {report['boards']} boards): "
+            f"{report['complete']} complete, {report['mean_cycle_ms']:.3f} ms per cycle "
+            f"({report['loop_hz']:.0f} Hz); raw UDP ping-pong {report['ping_pong_ms']:.3f} ms "
+            f"({report['ping_pong_hz']:.0f} Hz); client CPU "
+            f"{report['client_cpu_ms_per_cycle']:.3f} ms per cycle; load {report['load_1min']:.1f}"
         )
-    return 0 if good == args.cycles else 1
+    return 0 if report["complete"] == report["cycles"] else 1

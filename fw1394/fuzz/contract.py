@@ -9,6 +9,7 @@ also what decides which writes count as accepted.
 
 from __future__ import annotations
 
+from fw1394.boards.qla1.paths import ETHERNET_PATH, Path
 from fw1394.engine import IEEE1394_NODE, JHU_FIRMWARE, THESIS_FPGA, ResponderPolicy
 from fw1394.packets import (
     AckCode,
@@ -28,6 +29,10 @@ CONTRACTS: dict[str, ResponderPolicy] = {
     "jhu": JHU_FIRMWARE,
     "ieee1394": IEEE1394_NODE,
 }
+#: Contracts whose node answers differently over Eth1394: the JHU firmware's
+#: Ethernet path (no CRC checked, 16 offset bits, no answer to writes), the same
+#: description the emulated boards serve through.
+ETH1394_PATHS: dict[str, Path] = {"jhu": ETHERNET_PATH}
 _FAMILIES: dict[type[AsyncPacket], str] = {
     QuadletReadRequest: "read",
     BlockReadRequest: "read",
@@ -35,6 +40,15 @@ _FAMILIES: dict[type[AsyncPacket], str] = {
     BlockWriteRequest: "write",
     LockRequest: "lock",
 }
+
+
+def contract_path(contract: str, eth1394: bool) -> Path | None:
+    """The path a contract's node is reached over, where the contract says how it differs.
+
+    None: the contract's policy alone says how the node answers (FireWire, and
+    contracts that know no Ethernet path).
+    """
+    return ETH1394_PATHS.get(contract) if eth1394 else None
 
 
 def family(packet: AsyncPacket | None) -> str:

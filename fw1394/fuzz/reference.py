@@ -9,9 +9,14 @@ are the expected answers, its registers the expected state.
 In-process the target and the model share one clock and the comparison is
 exact. A node in another process keeps its own clock, so the model cannot
 know time-dependent values (timestamps, a watchdog about to fire, a moving
-motor). A twin model then runs beside the first, on a clock that runs at a
-different rate: where the two disagree the answer depends on time, and only
-what does not (ack, rcode, lengths, routing) is compared.
+motor). Twin models then run beside the first, on clocks that run at other
+rates: where they disagree the answer depends on time, and only what does
+not (ack, rcode, lengths, routing) is compared.
+
+A node reached over another path than FireWire (the JHU boards' Ethernet
+path) is given that path's description (:class:`fw1394.boards.qla1.paths.Path`):
+the model then reads the bytes, screens the destination, decodes the offset
+and shapes the answer as that path does, before and after the board.
 """
 
 from __future__ import annotations
@@ -19,14 +24,20 @@ from __future__ import annotations
 from enum import IntEnum
 
 from fw1394.boards import make_board
+from fw1394.boards.qla1.paths import Path
 from fw1394.boards.registry import board_defects
 from fw1394.engine import Reply, Responder, ResponderPolicy
 from fw1394.engine.space import AddressSpace
-from fw1394.packets import AsyncPacket
+from fw1394.packets import AsyncPacket, Request, Response
+from fw1394.packets.nodeid import phy_of
 
-#: The twin's clock: ``TWIN_RATE * now + TWIN_SHIFT`` (monotonic, and apart).
-TWIN_RATE = 1.5
-TWIN_SHIFT = 1.0
+#: The twins' clocks: ``rate * now + shift + step * packets`` (monotonic, and apart
+#: from the model's). A remote node sees the gaps between requests stretched or
+#: squeezed by scheduling on a loaded machine, and time passes between the packets
+#: of one batch (which the model sees at one instant): one twin runs 4 times faster
+#: and a few ms further per packet, one 4 times slower (a watchdog firing on the
+#: node and not in the model, or the other way round).
+TWIN_CLOCKS = ((4.0, 1.0, 0.005), (0.25, 1.0, 0.0))
 
 
 class Certainty(IntEnum):
@@ -77,37 +88,66 @@ class Reference:
         policy: ResponderPolicy,
         *,
         twin: bool = False,
+        path: Path | None = None,
     ) -> None:
         self.kind = kind
-        self.policy = policy
+        self.path = path
+        self.policy = policy if path is None else path.policy
         self.node_id = node_id
-        self.model = Responder(node_id, board(kind, board_id), policy)
-        self.twin = Responder(node_id, board(kind, board_id), policy) if twin else None
+        self.board_id = board_id
+        self.model = Responder(node_id, board(kind, board_id), self.policy)
+        self.twins = [
+            Responder(node_id, board(kind, board_id), self.policy)
+            for _ in (TWIN_CLOCKS if twin else ())
+        ]
         self._ceiling = Certainty.exact if kind is not None else Certainty.presence
+        self._packets = 0
 
     def expect(
-        self, packet: AsyncPacket | None, damaged: bool, now: float
+        self, packet: AsyncPacket | None, damaged: bool, now: float, *, raw: bytes | None = None
     ) -> tuple[Reply, Certainty]:
-        """The reply the contract asks for, and how far the model vouches for it."""
+        """The reply the contract asks for, and how far the model vouches for it.
+
+        ``raw``: the bytes as sent, which a path other than FireWire reads its own way.
+        """
+        path = self.path
+        if path is not None:
+            if raw is not None:
+                packet, damaged = path.read(raw)
+            damaged = damaged and path.checks_crc
+            if not isinstance(packet, Request) or not path.takes(packet, self.board_id):
+                return _SILENT, self._ceiling
+            packet = path.for_board(packet, phy_of(self.node_id))
         if packet is None:
             return _SILENT, self._ceiling
-        reply = self.model.receive_packet(packet, now, damaged=damaged)
-        twin = self.twin
-        if twin is None:
-            return reply, self._ceiling
-        other = twin.receive_packet(packet, TWIN_RATE * now + TWIN_SHIFT, damaged=damaged)
-        if other == reply:
-            return reply, self._ceiling
-        if other.ack != reply.ack or _rcode(other) != _rcode(reply):
-            return reply, Certainty.presence
-        return reply, min(self._ceiling, Certainty.header)
+        reply = self._shaped(packet, self.model.receive_packet(packet, now, damaged=damaged))
+        certainty = self._ceiling
+        # No twins (a node restarted with the model): the comparison is exact.
+        self._packets += 1
+        for twin, (rate, shift, step) in zip(self.twins, TWIN_CLOCKS, strict=False):
+            when = rate * now + shift + step * self._packets
+            other = self._shaped(packet, twin.receive_packet(packet, when, damaged=damaged))
+            if other == reply:
+                continue
+            if other.ack != reply.ack or _rcode(other) != _rcode(reply):
+                certainty = Certainty.presence
+            certainty = min(certainty, Certainty.header)
+        return reply, certainty
+
+    def _shaped(self, request: AsyncPacket, reply: Reply) -> Reply:
+        """``reply`` as it leaves over the path (the Ethernet path's source ID)."""
+        path, response = self.path, reply.response
+        if path is None or not isinstance(response, Response):
+            return reply
+        assert isinstance(request, Request)
+        return Reply(reply.ack, path.answer(response, request, self.board_id), reply.concatenated)
 
     def renumber(self, node_id: int) -> None:
         """The target took a new node ID (a bus reset)."""
         self.node_id = node_id
         self.model.bus_reset(node_id=node_id, generation=self.model.generation + 1)
-        if self.twin is not None:
-            self.twin.bus_reset(node_id=node_id, generation=self.twin.generation + 1)
+        for twin in self.twins:
+            twin.bus_reset(node_id=node_id, generation=twin.generation + 1)
 
 
 _SILENT = Reply(None, None, False)

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from fw1394.boards.registry import BOARDS, known_defects
 from fw1394.fuzz.clock import SimulatedClock, WallClock
-from fw1394.fuzz.contract import CONTRACTS
+from fw1394.fuzz.contract import CONTRACTS, contract_path
 from fw1394.fuzz.offsets import OffsetModel, offset_model
 from fw1394.fuzz.reference import Reference
 from fw1394.fuzz.settings import Settings, SettingsError, default_policy
@@ -118,6 +118,7 @@ def reference_for(settings: Settings, target: Target) -> Reference:
         target.node_id,
         CONTRACTS[settings.contract],
         twin=not target.restartable,
+        path=contract_path(settings.contract, settings.eth1394),
     )
 
 

@@ -20,6 +20,7 @@ from fw1394.fuzz.judge import Violation, describe, difference, is_silent, visibl
 from fw1394.fuzz.offsets import OffsetModel
 from fw1394.fuzz.reference import Certainty, Reference
 from fw1394.fuzz.target import Observed, Target, TargetCrash, Wire
+from fw1394.fuzz.tunnel import tlabel_of
 from fw1394.packets import (
     AckCode,
     AsyncPacket,
@@ -106,7 +107,7 @@ class Trial:
         batch = [_Sent("case", wire, label)]
         # Our own packets never share the case's label: a transport without acks
         # (Eth1394) tells replies apart by label alone.
-        self._avoid = getattr(wire.packet, "tlabel", -1)
+        self._avoid = _label_in(wire)
         readback = self._readback(wire.packet)
         if readback is not None:
             batch.append(_Sent("readback", readback, ""))
@@ -133,7 +134,7 @@ class Trial:
         found: list[Violation] = []
         for entry in entries:
             wire = wire_of(entry.raw)
-            self._avoid = getattr(wire.packet, "tlabel", -1)
+            self._avoid = _label_in(wire)
             batch = [_Sent(entry.role, wire, entry.label)]
             found += self._run(batch, entry.time if keep_times else None)
             if self.broken:
@@ -153,13 +154,15 @@ class Trial:
     def _run(self, batch: list[_Sent], now: float | None = None) -> list[Violation]:
         now = self.clock() if now is None else now
         expect = self.reference.expect
-        expected = [expect(sent.wire.packet, sent.wire.damaged, now) for sent in batch]
+        expected = [
+            expect(sent.wire.packet, sent.wire.damaged, now, raw=sent.wire.raw) for sent in batch
+        ]
         if self.target.needs_fence and batch:
             visibility = self.target.visibility
             if is_silent(visible(expected[-1][0], visibility)):
                 fence = _Sent("probe", self._probe(), "")
                 batch.append(fence)
-                expected.append(expect(fence.wire.packet, False, now))
+                expected.append(expect(fence.wire.packet, False, now, raw=fence.wire.raw))
         stream = self.stream
         for sent in batch:
             stream.append(Entry(sent.role, now, sent.wire.raw, sent.label))
@@ -321,6 +324,12 @@ class Trial:
             length = min(max(len(packet.data), 4), READBACK_LIMIT) & ~3
             return self._read(packet.offset, length)
         return self._read(packet.offset)
+
+
+def _label_in(wire: Wire) -> int:
+    """The label a node could read in the case's bytes (even when it decodes no packet)."""
+    label = tlabel_of(wire.raw)
+    return -1 if label is None else label
 
 
 def wire_of(raw: bytes) -> Wire:

@@ -3,9 +3,11 @@
 Over fw1394's tunnel (``docs/virtual-bus.md``) an ack names the sequence
 number of the frame it acknowledges, and may carry a concatenated response;
 a split response comes later as a packet of its own and is matched by its
-transaction label. Over Eth1394 there are no acks: responses are matched by
-label alone, in order. Either way the batch is complete once its last packet
-(the fence) has its whole reply.
+transaction label. Over Eth1394 there are no acks: a response is matched by
+label, kind (the response tcode its request gets) and requester, in order; one
+that answers no request of the batch is a late answer to an earlier batch and
+is counted as such, never taken for a later request's. Either way the batch is
+complete once its last packet (the fence) has its whole reply.
 """
 
 from __future__ import annotations
@@ -13,19 +15,35 @@ from __future__ import annotations
 from fw1394.fuzz.target import Observation, Wire
 from fw1394.packets import AckCode
 from fw1394.packets.asynchronous import tcode_of
-from fw1394.packets.fast import FIELD_NAMES, HEADER_SIZES, decode_header
+from fw1394.packets.enums import TCode
+from fw1394.packets.fast import FIELD_NAMES
+from fw1394.packets.tcodes import RESPONSE_OF_REQUEST
 from fw1394.transport.wire import FrameError, parse_ack
+
+
+def answer_of(raw: bytes, *, request: bool) -> tuple[int, int] | None:
+    """(response tcode, requester ID) of the answer to the request in ``raw``, or, with
+    ``request=False``, of the response in ``raw``; None where there is none to read.
+
+    Read from the first two quadlets, which every asynchronous packet has, so a
+    request cut short (a node may still answer it) is matched too.
+    """
+    if len(raw) < 8 or tlabel_of(raw) is None:
+        return None
+    tcode = tcode_of(raw)
+    if request:
+        return RESPONSE_OF_REQUEST.get(TCode(tcode), -1), int.from_bytes(raw[4:6], "big")
+    return tcode, int.from_bytes(raw[0:2], "big")
 
 
 def tlabel_of(raw: bytes) -> int | None:
     """The transaction label of the packet in ``raw`` (None: no header to read it from)."""
     if len(raw) < 4:
         return None
-    tcode = tcode_of(raw)
-    names = FIELD_NAMES.get(tcode)
-    if names is None or "tlabel" not in names or len(raw) < HEADER_SIZES[tcode]:
+    names = FIELD_NAMES.get(tcode_of(raw))
+    if names is None or "tlabel" not in names:
         return None
-    return int(decode_header(raw)[names.index("tlabel")])
+    return raw[2] >> 2  # quadlet 0 bits 15..10, in every packet that has a label
 
 
 class Replies:
@@ -35,6 +53,9 @@ class Replies:
         count = len(batch)
         self._index = {s: i for i, s in enumerate(sequences or ())}
         self._tlabels = [tlabel_of(wire.raw) for wire in batch]
+        self._answers = [answer_of(wire.raw, request=True) for wire in batch]
+        #: Responses that answer no request of the batch (late answers to earlier ones).
+        self.late = 0
         self.acks: list[int | None] = [None] * count
         self.responses: list[bytes | None] = [None] * count
         self.concatenated = [False] * count
@@ -67,10 +88,16 @@ class Replies:
         open_ = [i for i in range(last + 1) if self.responses[i] is None]
         tlabel = tlabel_of(raw)
         matching = [i for i in open_ if self._tlabels[i] == tlabel]
+        if not acked:
+            # The label is 6 bits: the kind of answer and whom it is for must fit too.
+            answer = answer_of(raw, request=False)
+            matching = [i for i in matching if self._answers[i] == answer]
         if matching:
             self.responses[matching[0]] = raw
         elif acked and open_:
             self.responses[open_[-1]] = raw
+        else:
+            self.late += 1
 
     def complete(self, *, acks: bool = True) -> bool:
         """The last packet has its whole reply (with acks: an ack, and the

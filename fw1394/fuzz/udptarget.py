@@ -84,6 +84,8 @@ class UdpTarget:
         self._member = secrets.randbits(32) or 1
         self._sequence = itertools.count(1)
         self._late = False
+        #: Responses that came after their batch was over (see :class:`Replies`).
+        self.late_replies = 0
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
             self.sock.connect(address)
@@ -171,14 +173,18 @@ class UdpTarget:
             self._take(datagram, replies)
         # Replies still on their way would be taken for the next batch's.
         self._late = not replies.complete(acks=acks)
+        self.late_replies += replies.late
         return list(replies.observations())
 
     def _drain(self) -> None:
-        self.sock.settimeout(0.0)
+        # The last batch went unanswered in time: its replies may still be on their
+        # way. Give them the batch's time again, so none is taken for this batch's.
+        self.sock.settimeout(self.timeout)
         try:
             while True:
                 self.sock.recv(MAX_DATAGRAM)
-        except (BlockingIOError, ConnectionRefusedError):
+                self.late_replies += 1
+        except (TimeoutError, BlockingIOError, ConnectionRefusedError):
             pass
         self._late = False
 

@@ -23,6 +23,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from fw1394.boards.qla1.eth_server import LOOPBACK_INTERFACE
+from fw1394.boards.qla1.framing import extra_generation_and_echo, request_datagram
 from fw1394.packets import (
     AsyncPacket,
     BlockReadRequest,
@@ -35,15 +36,10 @@ from fw1394.packets.eth1394 import (
     EXTRA_SIZE,
     HOST_RECEIVE_TIMEOUT_S,
     MULTICAST_GROUP,
-    ControlWord,
-    Eth1394Request,
     HostNodeFlag,
     HostReadRequest,
     HostVerdict,
-    build_request,
-    host_sees_bus_reset,
     host_verdict,
-    parse_response,
 )
 from fw1394.packets.fast import encode_packet
 from fw1394.transport.eth1394_addresses import (
@@ -138,11 +134,8 @@ class EthUdpClient:
         return MULTICAST_GROUP if node == BROADCAST_NODE else self.server
 
     def _send(self, packet: AsyncPacket, node: int, flags: int) -> bool:
-        control = ControlWord(
-            no_forward=bool(flags & HostNodeFlag.NO_FORWARD) or self.ethernet_only,
-            bus_generation=self.state.generation & 0xFF,
-        )
-        payload = build_request(Eth1394Request(control, encode_packet(packet)))
+        no_forward = bool(flags & HostNodeFlag.NO_FORWARD) or self.ethernet_only
+        payload = request_datagram(no_forward, self.state.generation, encode_packet(packet))
         address = (self.destination(node, bool(flags & HostNodeFlag.ETH_BROADCAST)), self.port)
         self.sent.append((address, payload))
         try:
@@ -190,15 +183,12 @@ class EthUdpClient:
             return None
 
     def _process_extra(self, datagram: bytes) -> None:
-        extra = parse_response(datagram[-EXTRA_SIZE:]).extra
+        generation, no_forward_echo = extra_generation_and_echo(datagram)
         # Every response updates the generation the FPGA reports; only those
         # without the no-forward echo are announced as a bus reset.
-        self.state.new_generation = extra.fpga_bus_generation
-        if host_sees_bus_reset(self.state.generation, extra):
-            self.say(
-                f"Firewire bus reset, FPGA = {extra.fpga_bus_generation}, "
-                f"PC = {self.state.generation}"
-            )
+        self.state.new_generation = generation
+        if generation != self.state.generation and not no_forward_echo:
+            self.say(f"Firewire bus reset, FPGA = {generation}, PC = {self.state.generation}")
 
     def _read(self, request: HostReadRequest, caller: str) -> bytes | None:
         """Receive and judge the answer to the read just sent; its 1394 packet if accepted."""

@@ -10,11 +10,14 @@ those of jhu-eth1394.md §4.5-4.6.
 
 from __future__ import annotations
 
+import os
+import select
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from fw1394.boards.qla1 import rt_blocks as rt
+from fw1394.boards.qla1.framing import request_datagram
 from fw1394.boards.qla1.regs import (
     CHANNELS,
     DAC_BOARD_ID_SHIFT,
@@ -24,9 +27,11 @@ from fw1394.boards.qla1.regs import (
     HUB_QUERY,
     BoardRegister,
 )
-from fw1394.jhu.client import EthUdpClient
+from fw1394.jhu.client import HOST_SOURCE_ID, LOCAL_BUS_IDS, MAX_DATAGRAM, EthUdpClient
 from fw1394.jhu.scan import BOARD_ID_MASK, Protocol, ScanResult
+from fw1394.packets import QuadletReadRequest
 from fw1394.packets.eth1394 import BROADCAST_NODE
+from fw1394.packets.fast import encode_packet
 
 SEQUENCE_LIMIT = 0xFFFF
 
@@ -95,11 +100,11 @@ class RealTimeLoop:
             return dict.fromkeys((b.board_id for b in self.boards), None)
         query_tl = client.state.tl
         data = None
+        # The library sleeps a fixed few microseconds (per board) before its one
+        # receive; here the receive's own wait covers it, and ends as soon as the
+        # answer is in (a sleep that short lasts far longer on a busy machine).
         if not client.state.use_bridge:
-            time.sleep((3 + 38 * (len(self.boards) - 1)) * 1e-6)
             data = client.receive_broadcast_response(query_tl, size)
-        else:
-            time.sleep((10 + 10 * (len(self.boards) - 1)) * 1e-6)
         if data is None:
             hub = self.scan.node_of(client.state.hub_board)
             data = client.read_block_node(hub, HUB_MEMORY_BASE, size)
@@ -156,3 +161,96 @@ class RealTimeLoop:
         blocks = self.read_all()
         self.write_all(commands)
         return blocks
+
+
+# -- how fast the loop runs, beside the machine's floor ---------------------------------------
+
+
+@dataclass(frozen=True)
+class RateReport:
+    """A run of the loop, interleaved with raw UDP ping-pongs to the same boards."""
+
+    protocol: str
+    boards: int
+    cycles: int
+    complete: int
+    loop_seconds: float
+    loop_cpu_seconds: float
+    pings: int
+    ping_seconds: float
+    load: float
+
+    def as_dict(self) -> dict[str, float | int | str]:
+        return {
+            "protocol": self.protocol,
+            "boards": self.boards,
+            "cycles": self.cycles,
+            "complete": self.complete,
+            "mean_cycle_ms": 1e3 * self.loop_seconds / max(self.cycles, 1),
+            "loop_hz": self.cycles / self.loop_seconds if self.loop_seconds else 0.0,
+            "client_cpu_ms_per_cycle": 1e3 * self.loop_cpu_seconds / max(self.cycles, 1),
+            "ping_pong_ms": 1e3 * self.ping_seconds / max(self.pings, 1),
+            "ping_pong_hz": self.pings / self.ping_seconds if self.ping_seconds else 0.0,
+            "load_1min": self.load,
+        }
+
+
+def ping_pong(client: EthUdpClient, node: int) -> Callable[[], bool]:
+    """One bare round trip to ``node``: a prebuilt quadlet read out, its datagram back.
+
+    The floor a loop cycle (at least one round trip) cannot beat on this machine
+    right now: no flush, no checks, no bookkeeping.
+    """
+    request = QuadletReadRequest(
+        destination_id=LOCAL_BUS_IDS | node,
+        tlabel=0,
+        source_id=HOST_SOURCE_ID,
+        offset=BoardRegister.HARDWARE_VERSION,
+    )
+    payload = request_datagram(not client.state.use_bridge, client.state.generation,
+                               encode_packet(request))  # fmt: skip
+    address = (client.destination(node, False), client.port)
+    sock, timeout = client.sock, client.receive_timeout
+
+    def once() -> bool:
+        sock.sendto(payload, address)
+        if not select.select([sock], [], [], timeout)[0]:
+            return False
+        sock.recv(MAX_DATAGRAM)
+        return True
+
+    return once
+
+
+def measure(loop: RealTimeLoop, cycles: int, chunk: int = 50) -> RateReport:
+    """``cycles`` cycles of ``loop`` in chunks, each chunk followed by as many ping-pongs."""
+    assert loop.protocol is not None
+    ping = ping_pong(loop.client, loop.boards[0].node)
+    complete = pings = 0
+    loop_seconds = loop_cpu = ping_seconds = 0.0
+    done = 0
+    while done < cycles:
+        count = min(chunk, cycles - done)
+        started, cpu = time.perf_counter(), time.process_time()
+        for _ in range(count):
+            blocks = loop.cycle()
+            complete += all(block is not None for block in blocks.values())
+        loop_seconds += time.perf_counter() - started
+        loop_cpu += time.process_time() - cpu
+        loop.client.flush()
+        started = time.perf_counter()
+        for _ in range(count):
+            pings += ping()
+        ping_seconds += time.perf_counter() - started
+        done += count
+    return RateReport(
+        loop.protocol.value,
+        len(loop.boards),
+        cycles,
+        complete,
+        loop_seconds,
+        loop_cpu,
+        pings,
+        ping_seconds,
+        os.getloadavg()[0],
+    )

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import enum
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from fw1394.boards.qla1.regs import BoardRegister, ip_to_register
@@ -116,8 +117,8 @@ def init_nodes(client: EthUdpClient) -> int:
         return 0
     fpga = fpga_major(eth_status)
     if not state.use_bridge and (fpga != 3 or firmware < 9):
-        reason = f"FPGA V{fpga}" if fpga != 3 else f"Firmware Rev {firmware}"
-        client.say(f"InitNodes: hub board is {reason}, using Ethernet/Firewire bridge")
+        reason = f"is FPGA V{fpga}" if fpga != 3 else f"has Firmware Rev {firmware}"
+        client.say(f"InitNodes: hub board {reason}, using Ethernet/Firewire bridge")
         state.use_bridge = True
     elif state.use_bridge:
         client.say("InitNodes: using Ethernet/Firewire bridge")
@@ -129,45 +130,82 @@ def init_nodes(client: EthUdpClient) -> int:
 def scan_nodes(client: EthUdpClient, nodes: int) -> list[ScannedBoard]:
     """BasePort::ScanNodes: the five reads per node; absent nodes time out."""
     found: list[ScannedBoard] = []
+    say = client.say
+    say(f"BasePort::ScanNodes: building node map for {nodes} nodes:")
     for node in range(nodes):
         hardware = client.read_quadlet_node(node, BoardRegister.HARDWARE_VERSION)
         if hardware is None:
-            continue
+            continue  # the UDP port says nothing here (only FireWire does)
         if hardware not in SUPPORTED_HARDWARE:
-            client.say(f"BasePort::ScanNodes: node {node} is not a supported board")
+            say(f"BasePort::ScanNodes: node {node} is not a supported board (data = {hardware:x})")
             continue
         firmware = client.read_quadlet_node(node, BoardRegister.FIRMWARE_VERSION)
         if firmware is None:
+            say(f"BasePort::ScanNodes: unable to read firmware version from node {node}")
             continue
         fpga = 1
         if firmware >= 5:
             eth_status = client.read_quadlet_node(node, BoardRegister.ETH_STATUS)
             if eth_status is None:
+                say(
+                    "BasePort::ScanNodes: unable to read FPGA version (ETH_STATUS) "
+                    f"from node {node}"
+                )
                 continue
             fpga = fpga_major(eth_status)
         status = client.read_quadlet_node(node, BoardRegister.STATUS)
         if status is None:
+            say(f"BasePort::ScanNodes: unable to read status from node {node}")
             continue
         board_id = (status & BOARD_ID_MASK) >> 24
         client.state.firmware[board_id] = firmware
         git = client.read_quadlet_node(node, BoardRegister.GIT_DESCRIPTION)
+        if git is None:
+            say(f"BasePort::ScanNodes: unable to read git desc from node {node}")
         name = hardware.to_bytes(4, "big").decode("ascii", "replace")
-        client.say(
+        say(
             f"  Node {node}, BoardId = {board_id}, FPGA_V{fpga or '?'}, Hardware = {name}, "
-            f"Firmware Version = {firmware}"
+            f"Firmware Version = {firmware}{git_suffix(git or 0)}"
         )
         found.append(ScannedBoard(node, board_id, hardware, firmware, fpga, git or 0))
-    client.say(f"BasePort::ScanNodes: found {len(found)} boards")
+    say(f"BasePort::ScanNodes: found {len(found)} boards")
     return found
 
 
-def default_protocol(boards: list[ScannedBoard]) -> Protocol:
+def git_suffix(git_description: int) -> str:
+    """What the scan line appends for GIT_DESC: "+", "-" or "?" and the SHA (none for 0)."""
+    if not git_description:
+        return ""
+    dirty, commits, flag = bool(git_description & 8), bool(git_description & 4), git_description & 3
+    if flag == 0:
+        if not (dirty or commits):
+            return ""
+        mark = "+"
+    else:
+        mark = "-" if flag == 1 else "?"
+    return f"{mark} (git-{git_description >> 4:07x}{'*' if dirty else ''})"
+
+
+def default_protocol(
+    boards: list[ScannedBoard], say: Callable[[str], None] | None = None
+) -> Protocol:
     """BasePort::SetDefaultProtocol: broadcast write when every board can and the mix is valid."""
-    revisions = [board.firmware for board in boards]
+    revisions = {board.firmware for board in boards}
     if not revisions or min(revisions) < 4:
         return Protocol.SEQ_RW
-    groups = ({4, 5, 6}, {7}, {8, 9})
-    valid_mix = any(set(revisions) <= group for group in groups)
+    shorter_wait = revisions in ({6}, {7}) or revisions <= {8, 9}
+    valid_mix = revisions <= {4, 5, 6} or revisions == {7} or revisions <= {8, 9}
+    prefix = "BasePort::SetDefaultProtocol: all nodes broadcast capable"
+    if not valid_mix:
+        message = f"{prefix}, but disabled due to mix of firmware"
+    elif shorter_wait:
+        message = f"{prefix} and support shorter wait"
+    elif revisions <= {4, 5}:
+        message = f"{prefix} and do not support shorter wait"
+    else:
+        message = f"{prefix} and some support shorter wait"
+    if say is not None:
+        say(message)
     return Protocol.SEQ_R_BC_W if valid_mix else Protocol.SEQ_RW
 
 
@@ -200,11 +238,11 @@ def start(client: EthUdpClient) -> ScanResult:
     """The whole port start-up (EthUdpPort::Init); logs "Initialization done/failed"."""
     result = ScanResult()
     nodes = init_nodes(client)
-    result.boards = scan_nodes(client, nodes) if nodes else []
+    result.boards = scan_nodes(client, nodes)
     result.hub_board = client.state.hub_board
     result.bridge = client.state.use_bridge
     if result.ok:
-        result.protocol = default_protocol(result.boards)
+        result.protocol = default_protocol(result.boards, client.say)
         if result.bridge:
             result.gap_count_written = optimize_gap_count(client, len(result.boards))
     client.say("Initialization done" if result.ok else "Initialization failed")

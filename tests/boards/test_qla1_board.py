@@ -75,7 +75,7 @@ def test_minimal_register_set(board_id: int) -> None:
 
 def test_unmapped_reads_return_zero() -> None:
     board = Qla1Board(board_id=1)
-    for offset in (0x4000, 0x2000, 0x0050, 0x0F00, 0x9000, 0xB012):
+    for offset in (0x4000, 0x2000, 0x0050, 0x0F50, 0x9000, 0xB012):
         assert board.read_quadlet(offset) == 0
     strict = Qla1Board(board_id=1, defects=frozenset({DEFECT_UNMAPPED_ADDRESS_ERROR}))
     with pytest.raises(AddressError):

@@ -166,5 +166,6 @@ def test_without_acks_a_response_needs_its_label() -> None:
     late = encode(QuadletReadResponse(tlabel=33))
     replies.on_response(late, acked=False)
     assert replies.observations()[0].response is None
-    replies.on_response(encode(QuadletReadResponse(tlabel=6)), acked=False)
+    # The requests come from 0xFFC1 (the default source): so must their answers.
+    replies.on_response(encode(QuadletReadResponse(destination_id=0xFFC1, tlabel=6)), acked=False)
     assert replies.complete(acks=False)

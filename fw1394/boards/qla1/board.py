@@ -4,8 +4,10 @@ The personality answers what the JHU host library (Amp1394) asks during
 start-up and in its real-time loop: the board registers, 4 motor channels,
 the real-time read and write blocks of firmware revisions 1..9, the
 watchdog, hub space and the CSR / configuration-ROM window. Offsets are
-decoded like the firmware does: bits 15..0 as a quadlet index, except in
-the CSR window 0xFFFF_F000_0xxx, which is byte-addressed. Unmapped reads
+decoded like the firmware does, through the FireWire decoding of the register
+map (:mod:`fw1394.boards.qla1.regmap`): bits 15..0 as a quadlet index, bits
+11..8 ignored in the MAIN space, except in the CSR window 0xFFFF_F000_0xxx,
+which is byte-addressed. Unmapped reads
 return 0 and writes there vanish: like the real board, this one never
 refuses a request (only offsets beyond 48 bits and values beyond 32 bits,
 which no packet can carry, raise).
@@ -17,7 +19,9 @@ names are left for the layers that receive the same set.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import functools
+import struct
+from collections.abc import Callable, Sequence
 
 from fw1394.boards.qla1 import rt_blocks as rt
 from fw1394.boards.qla1.channels import MotorChannel
@@ -66,8 +70,8 @@ BOARD_DEFECTS = frozenset(
 )
 
 OFFSET_LIMIT = 1 << 48
-#: The register-bus address of an offset that is not in the CSR window.
-_register_address = FIREWIRE_DECODING.address
+#: The register-bus address of an offset (decoded once per offset: they repeat).
+_register_address = functools.lru_cache(maxsize=4096)(FIREWIRE_DECODING.address)
 #: Two amplifier temperatures (bits 15..8 and 7..0) in the board's raw units.
 TEMPERATURE_READING = 0x3C3C
 
@@ -149,6 +153,11 @@ class Qla1Board:
             return None
         return _quadlets_to_bytes(self.hub.image(self._now))
 
+    def store_hub_broadcast(self, words: Sequence[int]) -> None:
+        """Another board's block, written to hub memory (a register write: feeds the watchdog)."""
+        self.watchdog.clear_count(self._now)
+        self.hub.store_broadcast(words, self._now)
+
     # -- AddressSpace -------------------------------------------------------------------
 
     def set_time(self, ticks: int) -> None:
@@ -191,7 +200,8 @@ class Qla1Board:
     def write_block(self, offset: int, data: bytes) -> None:
         _check_offset(offset)
         # Only whole quadlets reach the registers, as in the firmware.
-        words = [int.from_bytes(data[n : n + 4], "big") for n in range(0, len(data) - 3, 4)]
+        count = len(data) // 4
+        words = list(struct.unpack_from(f">{count}I", data)) if count else []
         if not words:
             return
         if in_csr_window(offset):
@@ -205,10 +215,10 @@ class Qla1Board:
         if space == Space.MAIN:
             self._rt_block_write(index, words)
             return
-        self.watchdog.clear_count(self._now)
         if space == Space.HUB and index == HUB_MEMORY_BASE:
-            self.hub.store_broadcast(words, self._now)
+            self.store_hub_broadcast(words)
             return
+        self.watchdog.clear_count(self._now)
         for target, value in zip(self._block_indices(offset, len(words)), words, strict=True):
             self._write_index(target, value)
 
@@ -216,10 +226,13 @@ class Qla1Board:
 
     @staticmethod
     def _block_indices(offset: int, count: int) -> list[int]:
-        # Block transfers step bits 11..0 and keep the space nibble (they wrap within it).
+        # Block transfers step bits 11..0 and keep the space nibble (they wrap within
+        # it); each step is decoded again, so MAIN-space steps alias like single reads.
         index = _register_address(offset)
         space_bits = index & ~BLOCK_INDEX_MASK
-        return [space_bits | ((index + n) & BLOCK_INDEX_MASK) for n in range(count)]
+        return [
+            _register_address(space_bits | ((index + n) & BLOCK_INDEX_MASK)) for n in range(count)
+        ]
 
     def _unmapped(self, index: int) -> int:
         if DEFECT_UNMAPPED_ADDRESS_ERROR in self.defects:
@@ -244,7 +257,7 @@ class Qla1Board:
 
     def _read_main(self, index: int) -> int:
         channel, register = (index >> 4) & 0xF, index & 0xF
-        if index & 0x0F00 or channel > CHANNELS:
+        if channel > CHANNELS:
             return self._unmapped(index)
         if channel == 0:
             return self._read_board_register(register)
@@ -252,7 +265,7 @@ class Qla1Board:
 
     def _write_main(self, index: int, value: int) -> None:
         channel, register = (index >> 4) & 0xF, index & 0xF
-        if index & 0x0F00 or channel > CHANNELS:
+        if channel > CHANNELS:
             return
         if channel == 0:
             self._write_board_register(register, value)
@@ -408,4 +421,4 @@ def _space(index: int) -> int:
 
 
 def _quadlets_to_bytes(words: list[int]) -> bytes:
-    return b"".join(word.to_bytes(4, "big") for word in words)
+    return struct.pack(f">{len(words)}I", *words)

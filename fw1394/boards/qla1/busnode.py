@@ -31,9 +31,11 @@ from types import FrameType
 from fw1394.boards.qla1.board import BOARD_DEFECTS, Qla1Board
 from fw1394.boards.qla1.eth_server import (
     MAX_DATAGRAM,
+    RefusalLog,
     check_multicast_allowed,
     join_loopback_multicast,
     open_udp,
+    reply_address,
     send_loopback,
 )
 from fw1394.boards.qla1.ethernet import Action, EthernetPort, Forward, HubBroadcast, Reply, datagram
@@ -161,6 +163,7 @@ class QlaBusNode:
         self.link.on_reset = self._on_reset
         self.epoch = self.link.epoch
         self._running = True
+        self.refusals = RefusalLog()
         self._unicast: socket.socket | None = None
         self._udp: list[socket.socket] = []
         if options.eth1394 is not None:
@@ -242,7 +245,11 @@ class QlaBusNode:
             if isinstance(action, Reply):
                 if self._unicast is not None:
                     payload = datagram(action, processed, self.now())
-                    send_loopback(self._unicast, payload, action.address)
+                    local = self._unicast.getsockname()[0]
+                    address = reply_address(action.address, local)
+                    cause = send_loopback(self._unicast, payload, address)
+                    if cause is not None:
+                        self.refusals.refused(action.address, cause)
             elif isinstance(action, Forward):
                 self.station.send(
                     FrameKind.async_packet, action.packet.destination_node, action.raw

@@ -21,7 +21,9 @@ from __future__ import annotations
 
 import select
 import socket
+import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from ipaddress import IPv4Address
 
@@ -41,6 +43,7 @@ from fw1394.transport.eth1394_addresses import (
 
 MAX_DATAGRAM = 65_535
 LOOPBACK_INTERFACE = "127.0.0.1"
+UNSPECIFIED = IPv4Address("0.0.0.0")
 
 
 class MulticastRefusedError(AddressRefusedError):
@@ -77,15 +80,54 @@ def check_multicast_allowed(firmware: int) -> None:
         raise MulticastRefusedError(f"firmware {firmware}: {problem}")
 
 
-def send_loopback(sock: socket.socket, payload: bytes, address: tuple[str, int]) -> bool:
-    """Send only to 127.0.0.0/8; False when the address was refused or the send failed."""
+def reply_address(sender: tuple[str, int], local: str) -> tuple[str, int]:
+    """Where the reply to a request from ``sender`` goes, from a socket bound to ``local``.
+
+    The FPGA answers the request's source address and port, whatever they are
+    (EthernetIO.v:420-421,646-650). A real host whose multicast route has no
+    source address (``ip route add 224.0.0.0/4 dev lo``, the setup fw1394
+    documents) sends its multicast ETH_STATUS read from 0.0.0.0: the
+    unspecified address, which only a sender on this very host can use on
+    loopback. Linux delivers a datagram sent to 0.0.0.0 to the sending
+    socket's own address; so does this, explicitly, and the reply reaches the
+    host's socket (bound to the wildcard address) as the firmware's would.
+    """
+    host, port = sender
+    if IPv4Address(host) == UNSPECIFIED:
+        return local, port
+    return sender
+
+
+def send_loopback(sock: socket.socket, payload: bytes, address: tuple[str, int]) -> str | None:
+    """Send only to 127.0.0.0/8; None when sent, else why not (for :class:`RefusalLog`)."""
     if IPv4Address(address[0]) not in LOOPBACK_NETWORK:
-        return False
+        return f"not a loopback address (fw1394 sends only to {LOOPBACK_NETWORK})"
     try:
         sock.sendto(payload, address)
-    except OSError:
-        return False
-    return True
+    except OSError as error:
+        return f"send failed: {error.strerror or error}"
+    return None
+
+
+class RefusalLog:
+    """Says once per cause that a reply could not be sent, with the first address it hit."""
+
+    def __init__(self, say: Callable[[str], None] | None = None) -> None:
+        self._say = say or _to_stderr
+        self._causes: set[str] = set()
+
+    def refused(self, address: tuple[str, int], cause: str) -> None:
+        if cause in self._causes:
+            return
+        self._causes.add(cause)
+        self._say(
+            f"fw1394 jhu: cannot reply to {address[0]}:{address[1]}: {cause} "
+            "(further replies refused for this reason are only counted)"
+        )
+
+
+def _to_stderr(text: str) -> None:
+    print(text, file=sys.stderr, flush=True)
 
 
 @dataclass
@@ -102,11 +144,14 @@ class Eth1394Server:
     rack: Rack
     endpoint: Endpoint = field(default_factory=Endpoint)
     stats: ServerStats = field(default_factory=ServerStats)
+    #: Where refused replies are reported (once per cause); default stderr.
+    say: Callable[[str], None] | None = None
 
     def __post_init__(self) -> None:
         base = require_loopback(self.endpoint.host)
         check_multicast_allowed(self.rack.firmware)
         self.epoch = time.monotonic()
+        self.refusals = RefusalLog(self.say)
         self._unicast: dict[int, socket.socket] = {}
         self._targets: dict[socket.socket, list[int]] = {}
         self._running = True
@@ -147,7 +192,7 @@ class Eth1394Server:
         replies += self.rack.poll(self.now())
         processed = self.now()
         for index, reply in replies:
-            self._send(index, reply, processed)
+            self.send_reply(index, reply, processed)
 
     def _drain(self, sock: socket.socket) -> list[tuple[int, Reply]]:
         replies: list[tuple[int, Reply]] = []
@@ -161,12 +206,17 @@ class Eth1394Server:
             for index in self._targets[sock]:
                 replies += self.rack.receive(index, payload, sender, now)
 
-    def _send(self, index: int, reply: Reply, processed: float) -> None:
+    def send_reply(self, index: int, reply: Reply, processed: float) -> None:
+        """Send ``reply`` through the unicast socket of board ``index`` (stats, refusals)."""
         payload = datagram(reply, processed, self.now())
-        if send_loopback(self._unicast[index], payload, reply.address):
+        sock = self._unicast[index]
+        address = reply_address(reply.address, sock.getsockname()[0])
+        cause = send_loopback(sock, payload, address)
+        if cause is None:
             self.stats.sent += 1
         else:
             self.stats.refused += 1
+            self.refusals.refused(reply.address, cause)
 
     def serve_forever(self) -> None:
         while self._running:

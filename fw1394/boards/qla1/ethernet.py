@@ -24,7 +24,9 @@ responses carry zero CRCs.
 from __future__ import annotations
 
 import contextlib
-from dataclasses import dataclass, field, replace
+import functools
+import struct
+from dataclasses import dataclass, field
 
 from fw1394.boards.qla1.board import Qla1Board
 from fw1394.boards.qla1.firewire import (
@@ -33,7 +35,8 @@ from fw1394.boards.qla1.firewire import (
     hub_broadcast,
     is_hub_query,
 )
-from fw1394.boards.qla1.regmap import ETHERNET_DECODING
+from fw1394.boards.qla1.framing import extra_bytes, split_request
+from fw1394.boards.qla1.paths import ETHERNET_PATH, zero_crc_bytes
 from fw1394.boards.qla1.regs import (
     HUB_MEMORY_BASE,
     BoardRegister,
@@ -55,33 +58,33 @@ from fw1394.packets.asynchronous import tcode_of
 from fw1394.packets.enums import TCode
 from fw1394.packets.eth1394 import (
     Eth1394Error,
-    Eth1394Response,
     ExtraBytes,
-    build_response,
-    parse_request,
 )
-from fw1394.packets.fast import decode_packet, encode_packet
-from fw1394.packets.nodeid import BROADCAST_PHY, LOCAL_BUS, bus_of
+from fw1394.packets.fast import decode_packet
+from fw1394.packets.nodeid import BROADCAST_PHY, LOCAL_BUS
 from fw1394.packets.nodeid import node_id as node_id_of
 
 HostAddress = tuple[str, int]
 #: What an offset reaches over this path (no CSR window: only bits 15..0 arrive).
-_ethernet_address = ETHERNET_DECODING.address
+_ethernet_address = functools.lru_cache(maxsize=4096)(ETHERNET_PATH.decoding.address)
 #: Quadlet 2 of the unasked broadcast-read response: the hub memory offset.
 BROADCAST_RESPONSE_Q2 = HUB_MEMORY_BASE
 #: ETH_STATUS write bit that clears the sticky error flags.
 CLEAR_ERRORS = 1 << 29
 #: How long a read of hub memory waits for missing boards (emulator latency, not firmware).
 HUB_READ_WAIT = 0.015
-#: A quadlet read shorter than its 16 bytes is still answered from 14 bytes on (§3.2).
-SHORT_QREAD_MINIMUM = 14
-QREAD_SIZE = 16
 #: Early hub broadcasts kept for a query not seen yet.
 STASH_LIMIT = 64
 
 _READS = (QuadletReadRequest, BlockReadRequest)
 _RESPONSE_TCODES = (TCode.read_quadlet_response, TCode.read_block_response)
 _WRITES = (QuadletWriteRequest, BlockWriteRequest)
+
+
+@functools.lru_cache(maxsize=64)
+def _quadlets(data: bytes) -> tuple[int, ...]:
+    # Every board of a rack stores the same broadcast: unpacked once.
+    return struct.unpack_from(f">{len(data) // 4}I", data)
 
 
 @dataclass(frozen=True)
@@ -118,33 +121,14 @@ def datagram(reply: Reply, processed_at: float, sent_at: float) -> bytes:
     def ticks(seconds: float) -> int:
         return min(max(int(seconds * TICKS_PER_SECOND), 0), 0xFFFF)
 
-    extra = replace(
-        reply.extra,
-        receive_ticks=ticks(processed_at - reply.received_at),
-        total_ticks=ticks(sent_at - reply.received_at),
-    )
-    return build_response(Eth1394Response(reply.packet, extra))
-
-
-def zero_crc_bytes(response: Response) -> bytes:
-    """A response as the firmware's Ethernet path sends it: both CRC quadlets 0."""
-    if isinstance(response, BlockReadResponse):
-        return encode_packet(replace(response, header_crc=0, data_crc=0))
-    return encode_packet(replace(response, header_crc=0))
+    received = reply.received_at
+    timers = ticks(processed_at - received), ticks(sent_at - received)
+    return reply.packet + extra_bytes(reply.extra, *timers)
 
 
 def decode_request(raw: bytes) -> Request | None:
     """The request in ``raw``, read as leniently as the firmware does; None if unreadable."""
-    try:
-        packet = decode_packet(raw)
-    except PacketError:
-        if not (
-            SHORT_QREAD_MINIMUM <= len(raw) < QREAD_SIZE
-            and tcode_of(raw) == TCode.read_quadlet_request
-        ):
-            return None
-        # The read starts on the last word the UDP length announces, CRC or not.
-        packet = decode_packet(raw.ljust(QREAD_SIZE, b"\0"))
+    packet, _ = ETHERNET_PATH.read(raw)
     return packet if isinstance(packet, Request) else None
 
 
@@ -194,7 +178,7 @@ class EthernetPort:
     # -- requests from the host ------------------------------------------------------------
     def receive(self, payload: bytes, sender: HostAddress, now: float) -> list[Action]:
         try:
-            framed = parse_request(payload)
+            framed = split_request(payload)
         except Eth1394Error:
             return []
         packet = decode_request(framed.packet)
@@ -218,9 +202,10 @@ class EthernetPort:
             dropped = self._extra(False, packet_dropped=True)
             return [Reply(sender, b"", dropped, now)]
         expected = self.board.board_id if control.no_forward else firewire.node_id
-        local = destination == expected or (
-            broadcast
-            and (isinstance(packet, _WRITES) or (control.no_forward and self.ethernet_hub))
+        # Only the Ethernet hub answers broadcast reads, and only with no-forward.
+        hub_read = control.no_forward and self.ethernet_hub
+        local = ETHERNET_PATH.takes(packet, expected) and (
+            not broadcast or isinstance(packet, _WRITES) or hub_read
         )
         actions: list[Action] = []
         if destination != expected and not control.no_forward:
@@ -238,17 +223,14 @@ class EthernetPort:
         sender: HostAddress,
         now: float,
     ) -> list[Action]:
-        target = replace(packet, offset=_ethernet_address(packet.offset))
-        if not (isinstance(packet, _WRITES) and packet.destination_node == BROADCAST_PHY):
-            own = self.responder.node_id & BROADCAST_PHY
-            target = replace(target, destination_id=node_id_of(own, bus_of(packet.destination_id)))
+        target = ETHERNET_PATH.for_board(packet, self.responder.node_id & BROADCAST_PHY)
         if isinstance(target, BlockReadRequest) and self._hub_round_waiting(target):
             deadline = now + self.hub_read_wait
             self._pending.append(
                 _PendingRead(target, reply_node, no_forward, sender, now, deadline)
             )
             return []
-        actions = self._answer(target, packet.destination_id, reply_node, no_forward, sender, now)
+        actions = self._answer(target, reply_node, no_forward, sender, now)
         if isinstance(packet, QuadletWriteRequest):
             actions += self._after_write(packet, no_forward, sender, now)
         return actions
@@ -256,7 +238,6 @@ class EthernetPort:
     def _answer(
         self,
         target: Request,
-        destination_id: int,
         reply_node: int,
         no_forward: bool,
         sender: HostAddress,
@@ -265,8 +246,7 @@ class EthernetPort:
         reply = self.responder.receive_packet(target, now, damaged=False)
         if reply.response is None or not isinstance(reply.response, Response):
             return []
-        source = node_id_of(reply_node, bus_of(destination_id))
-        response = replace(reply.response, source_id=source)
+        response = ETHERNET_PATH.answer(reply.response, target, reply_node)
         return [Reply(sender, zero_crc_bytes(response), self._extra(no_forward), now)]
 
     def _after_write(
@@ -320,12 +300,18 @@ class EthernetPort:
         return self._round_progress(now)
 
     def _store(self, packet: BlockWriteRequest, now: float) -> None:
-        self.responder.receive_packet(packet, now, damaged=False)
+        # A hub broadcast is a broadcast block write to hub memory: written as the
+        # responder would (clock first), without screening it again per board.
+        board, ticks = self.board, int(now * TICKS_PER_SECOND)
+        if ticks > board.now:
+            board.set_time(ticks)
+        board.store_hub_broadcast(_quadlets(packet.data))
 
     def _hub_round_waiting(self, request: BlockReadRequest) -> bool:
         hub = self.board.hub
         return (
-            _ethernet_address(request.offset) == HUB_MEMORY_BASE
+            self.hub_read_wait > 0
+            and _ethernet_address(request.offset) == HUB_MEMORY_BASE
             and bool(hub.board_mask)
             and not hub.complete
         )
@@ -342,7 +328,6 @@ class EthernetPort:
             if hub.complete or now >= pending.deadline:
                 actions += self._answer(
                     pending.request,
-                    pending.request.destination_id,
                     pending.reply_node,
                     pending.no_forward,
                     pending.address,

@@ -14,6 +14,8 @@ notion of live here:
 
 from __future__ import annotations
 
+import functools
+import struct
 from typing import Protocol
 
 from fw1394.boards.qla1.board import Qla1Board
@@ -22,6 +24,8 @@ from fw1394.boards.qla1.regs import HUB_MEMORY_BASE, HUB_QUERY
 from fw1394.packets import AsyncPacket, BlockWriteRequest, QuadletWriteRequest
 from fw1394.packets.nodeid import BROADCAST_ID, BROADCAST_PHY, LOCAL_BASE, phy_of
 from fw1394.packets.nodeid import node_id as node_id_of
+
+_register_address = functools.lru_cache(maxsize=4096)(FIREWIRE_DECODING.address)
 
 #: Node ID of physical ID 0 on the local bus; a node ID is this ORed with the physical ID.
 LOCAL_BUS_IDS = LOCAL_BASE
@@ -88,10 +92,7 @@ class ClockedBoard:
 
 def is_hub_query(packet: AsyncPacket) -> bool:
     """A quadlet write to 0x1800: the broadcast query (only offset bits 15..0 count)."""
-    return (
-        isinstance(packet, QuadletWriteRequest)
-        and FIREWIRE_DECODING.address(packet.offset) == HUB_QUERY
-    )
+    return isinstance(packet, QuadletWriteRequest) and _register_address(packet.offset) == HUB_QUERY
 
 
 def query_reaches_every_node(packet: AsyncPacket) -> bool:
@@ -120,12 +121,12 @@ def hub_broadcast(board: Qla1Board, node_id: int) -> BlockWriteRequest | None:
         tlabel=0,
         priority=HUB_BROADCAST_PRIORITY,
         offset=HUB_BROADCAST_OFFSET,
-        data=b"".join(word.to_bytes(4, "big") for word in words),
+        data=struct.pack(f">{len(words)}I", *words),
     )
 
 
 def broadcast_sequence(packet: BlockWriteRequest) -> int | None:
     """The query sequence a hub-data broadcast answers, or None if it is not one."""
-    if FIREWIRE_DECODING.address(packet.offset) != HUB_MEMORY_BASE or len(packet.data) < 4:
+    if _register_address(packet.offset) != HUB_MEMORY_BASE or len(packet.data) < 4:
         return None
     return int.from_bytes(packet.data[:4], "big") >> 16

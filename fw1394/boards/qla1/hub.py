@@ -101,8 +101,10 @@ class HubState:
     @property
     def complete(self) -> bool:
         """True once every board of the mask has reported in this round."""
-        wanted = {n for n in range(16) if self.wants(n)}
-        return bool(wanted) and wanted <= self.blocks.keys()
+        reported = 0
+        for board_id in self.blocks:
+            reported |= 1 << board_id
+        return bool(self.board_mask) and self.board_mask & ~reported == 0
 
     def image(self, now: int) -> list[int]:
         """Hub memory as the host reads it from 0x1000."""

@@ -103,7 +103,15 @@ class Rack:
             responder = Responder(node_id_of(node), ClockedBoard(board), JHU_FIRMWARE)
             cabled = node == 0 or firmware >= MULTICAST_FIRMWARE
             port = (
-                EthernetPort(board, responder, RackLink(self.bus, node), ethernet_hub=node == 0)
+                EthernetPort(
+                    board,
+                    responder,
+                    RackLink(self.bus, node),
+                    ethernet_hub=node == 0,
+                    # Boards in one rack exchange their blocks before a request returns:
+                    # a hub read is answered at once, as the firmware does.
+                    hub_read_wait=0.0,
+                )
                 if cabled
                 else None
             )

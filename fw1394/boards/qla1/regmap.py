@@ -35,14 +35,30 @@ from fw1394.boards.qla1.regs import (
 from fw1394.boards.qla1.regs import (
     ChannelRegister as C,
 )
-from fw1394.boards.regmap import ETHERNET, FIREWIRE, Decoding, Group, Register, RegisterMap, Window
+from fw1394.boards.regmap import (
+    ETHERNET,
+    FIREWIRE,
+    Decoding,
+    Group,
+    IgnoredBits,
+    Register,
+    RegisterMap,
+    Window,
+)
 
 CSR_WINDOW = Window(CSR_WINDOW_PREFIX << CSR_WINDOW_SHIFT, CSR_BYTE_MASK + 1)
+#: The MAIN space (offset bits 15..12 = 0) looks at bits 7..4 (channel) and 3..0
+#: (register) only: bits 11..8 alias, so 0x104 is register 4 (FPGA1394V3.v:255,
+#: QLA.v:94-96).
+MAIN_SPACE_IGNORES = IgnoredBits(mask=0x0F00, when_mask=0xF000, when_value=0x0000)
 #: Over FireWire the link decodes the CSR window itself; everything else reaches
-#: the register bus as offset bits 15..0, a quadlet index.
-FIREWIRE_DECODING = Decoding(kept=REGISTER_INDEX_MASK, windows=(CSR_WINDOW,))
-#: Over Ethernet only offset bits 15..0 reach the register bus: no CSR window.
-ETHERNET_DECODING = Decoding(kept=REGISTER_INDEX_MASK)
+#: the register bus as offset bits 15..0, a quadlet index (FireWire.v:981-984).
+FIREWIRE_DECODING = Decoding(
+    kept=REGISTER_INDEX_MASK, ignored=(MAIN_SPACE_IGNORES,), windows=(CSR_WINDOW,)
+)
+#: Over Ethernet only offset bits 15..0 reach the register bus (EthernetIO.v:1249):
+#: no CSR window, so 0xFFFF_F000_0400 is register space there (MAIN 0x400 = STATUS).
+ETHERNET_DECODING = Decoding(kept=REGISTER_INDEX_MASK, ignored=(MAIN_SPACE_IGNORES,))
 
 BOARD = Group(
     "board",
