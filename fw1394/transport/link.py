@@ -30,9 +30,10 @@ import time
 from collections.abc import Callable, Iterable
 
 from fw1394.engine import Requester, Responder
+from fw1394.engine.fast_requester import FastEnds
 from fw1394.engine.fast_responder import FastResponder
 from fw1394.engine.responder import Reply, decode_received
-from fw1394.packets import AsyncPacket
+from fw1394.packets import AckCode, AsyncPacket, PacketError
 from fw1394.packets.accessors import TLABEL
 from fw1394.packets.fast import decode_packet, encode_packet
 from fw1394.packets.nodeid import BROADCAST_ID, node_id, phy_of
@@ -54,6 +55,7 @@ ASYNC_PACKET, ACK = int(FrameKind.async_packet), int(FrameKind.ack)
 #: Wire byte of each ack code (code and parity), looked up rather than computed.
 ACK_BYTES = tuple(ack_byte(code) for code in range(16))
 ACK_SIZE = ACK_PAYLOAD.size
+ACK_COMPLETE_BYTE = ACK_BYTES[AckCode.ack_complete]
 _pack_ack = ACK_PAYLOAD.pack
 _unpack_ack = ACK_PAYLOAD.unpack_from
 _clock = time.monotonic
@@ -245,11 +247,21 @@ class RequesterLink(LinkLayer):
     def __init__(self, requester: Requester, send: Send, station: Station | None = None) -> None:
         super().__init__(send, station)
         self.requester = requester
+        #: The common ends on flat bytes (None: the general path only).
+        self.fast_ack: Callable[[int, bytes, float], int | None] | None = FastEnds(requester).ack
 
     def take(self, header: FrameHeader, payload: bytes, now: float) -> None:
         kind = header.kind
         if kind == ACK:
-            self.on_ack(header.sender_phy, header.sequence, payload, now)
+            fast = self.fast_ack
+            label = None if fast is None else fast(header.sender_phy, payload, now)
+            if label is None:
+                self.on_ack(header.sender_phy, header.sequence, payload, now)
+            elif label >= 0:  # a concatenated response completed: the link acks it
+                ack = _pack_ack(ACK_COMPLETE_BYTE, label, 0, header.sequence)
+                self.send(ACK, header.sender_phy, ack)
+            else:
+                self.flush()  # as after any ack alone
         elif kind == ASYNC_PACKET:
             self.on_response(header.sender_phy, header.sequence, payload, now)
         else:
@@ -274,7 +286,10 @@ class RequesterLink(LinkLayer):
 
     def on_response(self, sender: int, sequence: int, payload: bytes, now: float) -> None:
         """A response packet from ``sender`` in frame ``sequence``, acked if the engine says so."""
-        packet = decode_packet(payload)
+        try:
+            packet = decode_packet(payload)
+        except PacketError:
+            return  # line noise (a reserved tcode): nothing on a real bus acks it
         code = self.requester.receive_response(packet, now)
         if code is not None:
             tlabel: int = getattr(packet, "tlabel", 0)
