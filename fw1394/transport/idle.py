@@ -17,8 +17,11 @@ Strategies (``docs/performance.md`` gives their CPU cost):
   received a frame (250 µs unless given: ``adaptive:100``), then block. Between
   polls the member yields its CPU (``sched_yield``), so that members sharing a
   core, such as four processes on two cores in ``fw1394 demo``, let the one with
-  work run instead of starving it. An idle bus costs nothing; a busy one costs
-  at most the window's CPU after each burst.
+  work run instead of starving it. And it polls only while the machine has a
+  core to spare (fewer runnable tasks than CPUs, looked up in ``/proc/loadavg``
+  every 50 ms): on a machine whose cores are all busy, polling only takes CPU
+  from the process that is to answer. An idle bus costs nothing; a busy one
+  costs at most the window's CPU after each burst.
 
 ``FW1394_IDLE`` (``block``, ``spin``, ``adaptive`` or ``adaptive:MICROSECONDS``)
 sets the strategy of every member started without an explicit one.
@@ -37,6 +40,9 @@ ENVIRONMENT = "FW1394_IDLE"
 #: How long an adaptive member keeps polling after traffic.
 DEFAULT_WINDOW = 250e-6
 _MSG_DONTWAIT = socket.MSG_DONTWAIT
+#: How often an adaptive member looks whether the machine has a core to spare.
+CHECK_EVERY = 0.05
+_LOADAVG = "/proc/loadavg"
 _NAMES = ("block", "spin", "adaptive")
 
 
@@ -80,7 +86,7 @@ def parse_idle(text: str) -> IdleStrategy:
         raise ValueError(f"idle strategy {text!r}: {window!r} is not a number") from None
     if not 0 <= micros <= 1e6:
         raise ValueError(f"idle strategy {text!r}: the window must be 0..1000000 us")
-    return IdleStrategy("adaptive", micros * 1e-6)
+    return IdleStrategy("adaptive", micros / 1e6)
 
 
 def default_idle() -> IdleStrategy:
@@ -98,7 +104,18 @@ class Waiter:
     worth being awake for.
     """
 
-    __slots__ = ("_last", "_poll", "_recv", "_yield", "sock", "strategy", "window")
+    __slots__ = (
+        "_checked",
+        "_cpus",
+        "_last",
+        "_poll",
+        "_recv",
+        "_spare",
+        "_yield",
+        "sock",
+        "strategy",
+        "window",
+    )
 
     def __init__(self, sock: socket.socket, strategy: IdleStrategy, poll_interval: float) -> None:
         self.sock = sock
@@ -109,6 +126,10 @@ class Waiter:
         self._yield: Callable[[], None] = getattr(os, "sched_yield", _no_yield)
         #: When this member last sent or received (monotonic seconds).
         self._last = -math.inf
+        self._cpus = os.cpu_count() or 1
+        #: Whether the machine had a core to spare when last looked (at ``_checked``).
+        self._spare = True
+        self._checked = -math.inf
 
     def traffic(self) -> None:
         self._last = time.monotonic()
@@ -119,7 +140,15 @@ class Waiter:
         if window:
             clock = time.monotonic
             now = clock()
-            until = now + self._poll if window == math.inf else self._last + window
+            if window == math.inf:
+                until = now + self._poll
+            else:
+                until = self._last + window
+                if now < until and now - self._checked >= CHECK_EVERY:
+                    self._checked = now
+                    self._spare = spare_core(self._cpus)
+                if not self._spare:
+                    until = now
             if now < until:
                 recv, pause = self._recv, self._yield
                 while True:
@@ -141,6 +170,20 @@ class Waiter:
         if window:
             self._last = time.monotonic()
         return data
+
+
+def spare_core(cpus: int) -> bool:
+    """Whether fewer tasks are runnable than there are CPUs (this one included).
+
+    Linux's ``/proc/loadavg`` counts the runnable tasks right now (its fourth
+    field, ``running/total``); elsewhere the answer is always yes.
+    """
+    try:
+        with open(_LOADAVG, "rb") as file:
+            running = int(file.read().split()[3].split(b"/")[0])
+    except (OSError, ValueError, IndexError):
+        return True
+    return running < cpus
 
 
 def _no_yield() -> None:  # pragma: no cover - every POSIX system has sched_yield
