@@ -7,7 +7,13 @@ same run: the case generator alone, and one bare responder answering the same
 cases (the least a fuzzer with a reference model must spend is two of those).
 Targets: >= 5,000 cases/s in-process, >= 1,500 cases/s over UDP.
 
-    python bench/fuzz.py [--cases 20000] [--remote-cases 5000]
+    python bench/fuzz.py [--cases 20000] [--remote-cases 5000] [--jobs-rounds 3]
+    python bench/fuzz.py --jobs-only [--jobs-cases 60000] [--jobs-rounds 5]
+
+``--jobs 2`` against one job: the same in-process campaign (the same total
+cases, seeds derived from one) timed from start to merged report, process
+start-up included, in interleaved rounds; the ratio of cases/s is the
+speed-up (target >= 1.7 on 2 cores; the load average is printed with it).
 """
 
 from __future__ import annotations
@@ -19,6 +25,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Iterator
+from concurrent.futures import ProcessPoolExecutor
 from contextlib import AbstractContextManager, contextmanager
 
 from fw1394.engine import Responder
@@ -28,10 +35,12 @@ from fw1394.fuzz.generate import Generator
 from fw1394.fuzz.offsets import offset_model
 from fw1394.fuzz.reference import board
 from fw1394.fuzz.settings import Settings
+from fw1394.fuzz.workers import run as run_jobs
 
 NODE = 0xFFC0
 IN_PROCESS_TARGET = 5_000
 UDP_TARGET = 1_500
+JOBS_TARGET = 1.7
 KINDS = ("memory", "qla1", "snake2010")
 
 
@@ -95,7 +104,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", type=int, default=20_000, help="cases per in-process run")
     parser.add_argument("--remote-cases", type=int, default=5_000, help="cases per remote run")
+    parser.add_argument("--jobs-cases", type=int, default=60_000, help="cases per jobs run")
+    parser.add_argument("--jobs-rounds", type=int, default=3, help="interleaved jobs rounds")
+    parser.add_argument("--jobs-only", action="store_true", help="only --jobs 2 against 1")
     args = parser.parse_args()
+    if args.jobs_only:
+        jobs_speedup(args.jobs_cases, args.jobs_rounds)
+        return
     print(f"{'target':34} {'cases/s':>8} {'target':>7}  baselines (same run)")
     worst_local = float("inf")
     for kind in KINDS:
@@ -116,6 +131,61 @@ def main() -> None:
     local = verdict(worst_local, IN_PROCESS_TARGET)
     print(f"\nin-process: slowest {worst_local:,.0f} cases/s ({local})")
     print(f"over UDP:   slowest {udp:,.0f} cases/s ({verdict(udp, UDP_TARGET)})")
+    print()
+    jobs_speedup(args.jobs_cases, args.jobs_rounds)
+
+
+def jobs_rate(jobs: int, cases: int) -> float:
+    """Cases/s of one in-process campaign on ``jobs`` workers, start-up included."""
+    settings = Settings("inproc:memory", max_cases=cases, shrink_budget=0, seed=1)
+    start = time.perf_counter()
+    report = run_jobs(settings, jobs)
+    return report.cases / (time.perf_counter() - start)
+
+
+def _burn(loops: int) -> int:
+    total = 0
+    for number in range(loops):
+        total += number
+    return total
+
+
+def machine_parallelism(loops: int = 5_000_000) -> float:
+    """What two processes get done against one right now (a bare loop): the ceiling
+    of any speed-up from workers while other work shares the machine."""
+    start = time.perf_counter()
+    _burn(2 * loops)
+    one = time.perf_counter() - start
+    with ProcessPoolExecutor(2) as pool:
+        start = time.perf_counter()
+        list(pool.map(_burn, [loops, loops]))
+        two = time.perf_counter() - start
+    return one / two
+
+
+def jobs_speedup(cases: int, rounds: int) -> None:
+    """``--jobs 2`` against one job, interleaved rounds; the median ratio."""
+    ratios, ceilings = [], []
+    print(f"--jobs 2 vs 1, inproc:memory, {cases:,} cases a run, {os.cpu_count()} CPUs")
+    for number in range(1, rounds + 1):
+        one = jobs_rate(1, cases)
+        two = jobs_rate(2, cases)
+        ceiling = machine_parallelism()
+        ratios.append(two / one)
+        ceilings.append(ceiling)
+        load = ", ".join(f"{value:.1f}" for value in os.getloadavg())
+        print(
+            f"  round {number}: 1 job {one:8,.0f} cases/s, 2 jobs {two:8,.0f} cases/s, "
+            f"ratio {two / one:.2f}; bare loop 2 vs 1 process {ceiling:.2f} "
+            f"(load average {load})"
+        )
+    median = sorted(ratios)[len(ratios) // 2]
+    ceiling = sorted(ceilings)[len(ceilings) // 2]
+    met = "met" if median >= JOBS_TARGET else "NOT met"
+    print(
+        f"median ratio {median:.2f}, machine ceiling {ceiling:.2f} "
+        f"(target >= {JOBS_TARGET} on 2 idle cores: {met})"
+    )
 
 
 def verdict(rate: float, target: int) -> str:

@@ -7,9 +7,14 @@ import os
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
+from fw1394.transport.launch import LaunchedBus
 from fw1394.transport.procs import process_alive
+
+# The ``launch_bus`` fixture: ``launch_bus(nodes, tag=, board=, node_arguments=)``.
+LaunchBus = Callable[..., LaunchedBus]
 
 _counter = itertools.count()
 PREFIX = f"fwtest{os.getpid()}"

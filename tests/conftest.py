@@ -1,6 +1,78 @@
-"""Shared fixtures and markers for the whole suite.
+"""Shared fixtures for the whole suite.
 
-The test tree mirrors the package (``tests/<package>/``); helpers shared by
-several packages' tests live beside this file (``bus_support.py``), which pytest
-puts on the import path.
+The test tree mirrors the package (``tests/<package>/``). Plain helpers shared by
+several packages' tests live beside this file, which pytest puts on the import
+path: ``bus_support`` (bus names, node processes, leftovers), ``fake_bus`` (the
+membership state machines on a fake medium) and ``polling`` (``wait_until``).
+Markers (``process``, ``netns``, ``tshark``, ``iverilog``, ``slow``) are
+registered in pyproject.toml; ``-m "not process"`` runs the in-process tiers.
 """
+
+from __future__ import annotations
+
+import re
+import subprocess
+from collections.abc import Iterator
+from contextlib import ExitStack
+from pathlib import Path
+
+import pytest
+from bus_support import LaunchBus, bus_name, stop, wait_until_gone
+
+from fw1394.transport.config import BusConfig
+from fw1394.transport.launch import LaunchedBus
+
+
+@pytest.fixture
+def unique_bus_name(request: pytest.FixtureRequest) -> str:
+    """A bus name no other test, and no other test run on this machine, uses."""
+    tag = re.sub(r"[^A-Za-z0-9]+", "-", request.node.name.removeprefix("test_"))[:24]
+    return bus_name(tag.strip("-") or "bus")
+
+
+@pytest.fixture
+def launch_bus(tmp_path: Path) -> Iterator[LaunchBus]:
+    """Start buses of node processes that are members by the time they are returned.
+
+    Every bus is stopped at teardown, even when the test fails, and must leave no
+    process behind.
+    """
+    names: list[str] = []
+    with ExitStack() as buses:
+
+        def launch(
+            nodes: int,
+            *,
+            tag: str = "bus",
+            board: str = "memory",
+            node_arguments: tuple[str, ...] = (),
+        ) -> LaunchedBus:
+            config = BusConfig(bus_name(tag))
+            names.append(config.name)
+            bus = LaunchedBus(
+                config, nodes, board=board, root=tmp_path, node_arguments=node_arguments
+            )
+            buses.enter_context(bus)
+            bus.wait_members()
+            return bus
+
+        yield launch
+    for name in names:
+        assert wait_until_gone(name) == [], f"processes of bus {name} outlived it"
+
+
+@pytest.fixture
+def node_processes() -> Iterator[list[subprocess.Popen[bytes]]]:
+    """Processes a test appends here are stopped at teardown, pass or fail."""
+    started: list[subprocess.Popen[bytes]] = []
+    yield started
+    for process in started:
+        stop(process)
+
+
+@pytest.fixture
+def findings_dir(tmp_path: Path) -> Path:
+    """An empty directory of its own for a fuzz run's findings."""
+    path = tmp_path / "findings"
+    path.mkdir()
+    return path

@@ -3,14 +3,21 @@
 from __future__ import annotations
 
 import argparse
+import io
+import os
 import signal
 import sys
 import threading
 from collections.abc import Callable
 from types import FrameType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, BinaryIO, cast
 
 from fw1394.cli.common import CliError
+
+#: How long to listen for a bus's coordinator (it beacons every 0.1 s).
+BUS_WAIT_S = 1.5
+#: ... when this machine's runtime state says the bus is being started.
+BUS_STARTING_WAIT_S = 10.0
 
 if TYPE_CHECKING:
     from fw1394.capture.formats.bus_tap import BusTap
@@ -19,8 +26,14 @@ EPILOG = """\
 examples:
   fw1394 capture -w trace.pcapng                    bus "default", until Ctrl-C
   fw1394 capture --bus arm -w arm.pcapng --duration 10
-  fw1394 capture --udp --interface eth0 -w boards.pcapng --count 1000
+  fw1394 capture --udp --interface eth0 -w boards.pcapng -c 1000
+  fw1394 capture -w - | fw1394 dissect -            the trace to standard output
+  fw1394 capture -w - | tshark -X lua_script:fw1394.lua -r -
   fw1394 dissect trace.pcapng                       read it back
+
+With -w - the trace is the only thing on standard output (binary pcapng, or
+pcap with --pcap); messages go to standard error. A bus capture first checks
+that the bus is up (its coordinator is heard), and fails if not.
 
 A bus trace uses fw1394's pcap link type (docs/capture-format.md); a UDP
 trace holds the Ethernet frames as they were, like tcpdump would write them.
@@ -35,7 +48,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("-w", "--write", required=True, metavar="FILE", help="trace file to write")
+    parser.add_argument(
+        "-w", "--write", required=True, metavar="FILE", help="trace file to write; - for stdout"
+    )
     parser.add_argument("--bus", default=None, help="virtual bus name (default: default)")
     parser.add_argument("--udp", action="store_true", help="capture Eth1394 UDP traffic instead")
     parser.add_argument("--port", type=int, default=1394, help="UDP port (default 1394)")
@@ -43,7 +58,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--interface", default="lo", help="network interface for --udp (default lo)"
     )
     parser.add_argument("--duration", type=float, help="stop after this many seconds")
-    parser.add_argument("--count", type=int, help="stop after this many packets")
+    parser.add_argument("-c", "--count", type=int, metavar="COUNT", help="stop after COUNT packets")
     parser.add_argument("-q", "--quiet", action="store_true", help="no line per packet")
     parser.add_argument("--pcap", action="store_true", help="classic pcap instead of pcapng")
     parser.set_defaults(handler=run)
@@ -62,11 +77,16 @@ def run(args: argparse.Namespace) -> int:
         raise CliError("--count must be positive")
     if not 0 < args.port < 65536:
         raise CliError(f"--port {args.port} is not a UDP port")
+    to_stdout = args.write == "-"
+    if not to_stdout and os.path.isdir(args.write):
+        raise CliError(f"-w {args.write}: is a directory; name a file")
+    if to_stdout and sys.stdout.isatty():
+        raise CliError("-w -: standard output is a terminal; pipe it (| fw1394 dissect -)")
     container = "pcap" if args.pcap or args.write.endswith(".pcap") else "pcapng"
     linktype = LINKTYPE_ETHERNET if args.udp else LINKTYPE_FW1394
     source = _open_tap(args.bus or "default") if not args.udp else None
     try:
-        stream = open(args.write, "wb")  # noqa: SIM115 - the writer closes it
+        stream = cast(BinaryIO, _KeepOpen(sys.stdout.buffer)) if to_stdout else _create(args.write)
     except OSError as error:
         if source is not None:
             source.close()
@@ -85,7 +105,8 @@ def run(args: argparse.Namespace) -> int:
     stop = threading.Event()
     previous = _stop_on_signals(stop)
     limits = live.Limits(stop, args.duration, args.count)
-    show = None if args.quiet else _printer()
+    # As tshark -w -: the trace owns standard output, so no line per packet.
+    show = None if args.quiet or to_stdout else _printer()
     try:
         if args.udp:
             count = live.capture_udp(args.interface, (args.port,), writer, limits, show)
@@ -95,22 +116,76 @@ def run(args: argparse.Namespace) -> int:
                 count = live.capture_records(source, writer, limits, show)
     except live.CaptureError as error:
         raise CliError(str(error)) from None
+    except BrokenPipeError:
+        # The reader went away (| head, dissect -c): stop quietly, as tshark does.
+        _silence_stdout()
+        return 0
     finally:
-        writer.close()
+        try:
+            writer.close()
+        except BrokenPipeError:
+            _silence_stdout()
         _restore(previous)
-    print(f"fw1394: {count} packets written to {args.write}", file=sys.stderr)
+    where = "standard output" if to_stdout else args.write
+    print(f"fw1394: {count} packets written to {where}", file=sys.stderr)
     return 0
 
 
+def _create(path: str) -> BinaryIO:
+    return open(path, "wb")
+
+
+class _KeepOpen(io.BufferedIOBase):
+    """Standard output for the trace writer: closing it flushes, stdout stays open."""
+
+    def __init__(self, stream: BinaryIO) -> None:
+        self._stream = stream
+
+    def writable(self) -> bool:
+        return True
+
+    def write(self, data: Any) -> int:
+        return self._stream.write(data)
+
+    def flush(self) -> None:
+        self._stream.flush()
+
+    def close(self) -> None:
+        self._stream.flush()
+
+
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null so the interpreter's final flush cannot fail again."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    os.close(devnull)
+
+
 def _open_tap(bus: str) -> BusTap:
+    """A tap on ``bus``, once its coordinator has been heard (no bus: a one-line error)."""
     try:
         from fw1394.capture.formats.bus_tap import BusTap
+        from fw1394.transport.observe import watch
+        from fw1394.transport.runtime import bus_dir, supervisor_alive
     except ImportError as error:
         raise CliError(f"virtual bus capture is not available: {error}") from None
     try:
-        return BusTap(bus)
+        tap = BusTap(bus)
     except (OSError, ValueError) as error:
         raise CliError(f"cannot tap bus {bus!r}: {error}") from None
+    # The tap listens already, so nothing sent while we look for a beacon is lost.
+    starting = supervisor_alive(bus_dir(bus)) is not None
+    wait = BUS_STARTING_WAIT_S if starting else BUS_WAIT_S
+    try:
+        if watch(tap.config, wait) is None:
+            raise CliError(
+                f"no bus {bus!r} is running (no coordinator heard in {wait:g} s); "
+                f"start one with: fw1394 bus up --name {bus}"
+            )
+    except BaseException:
+        tap.close()
+        raise
+    return tap
 
 
 def _printer() -> Callable[[str], None]:

@@ -7,6 +7,7 @@ import dataclasses
 import json
 import sys
 from collections.abc import Iterator
+from enum import IntEnum
 from typing import Any
 
 from fw1394.cli.common import CliError, hex_bytes, integer, print_table
@@ -15,9 +16,14 @@ from fw1394.packets import (
     PHY_CLASSES,
     Ack,
     AckCode,
+    ExtendedTCode,
     Packet,
     PacketError,
     PhyPacket,
+    PortStatus,
+    RCode,
+    Retry,
+    Speed,
     decode,
     encode,
     field_rows,
@@ -51,7 +57,15 @@ examples:
   fw1394 encode read_quadlet_request --destination-id 0xffc0 --tlabel 5 --offset 0xfffff0000400
   fw1394 encode write_block_request --offset 0x1000 --data '00000011 00000022'
   fw1394 encode self_id --phy-id 1 --link-active --gap-count 63 --scode 2 --port0 2
-  fw1394 encode ack --code 2
+  fw1394 encode write_response --rcode resp_address_error --tlabel 5
+  fw1394 encode ack --code ack_pending --json
+Each KIND's --help lists its fields with their widths, meanings and value names.
+"""
+
+
+KIND_EPILOG = """\
+CRCs and the PHY check quadlet are computed unless given, so a given wrong
+value makes a broken packet on purpose.
 """
 
 
@@ -101,20 +115,29 @@ def register(subparsers: Any) -> None:
         epilog=ENCODE_EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    kinds = encoder.add_subparsers(dest="kind", metavar="KIND", required=True)
+    kinds = encoder.add_subparsers(
+        dest="kind", metavar="KIND", required=True, title="kinds (fw1394 encode KIND --help)"
+    )
     for cls in (*ASYNC_CLASSES.values(), *PHY_CLASSES, Ack):
         name = _kind_name(cls)
+        summary_line = _kind_summary(cls, name)
         kind = kinds.add_parser(
             name,
-            help=(cls.__doc__ or name).strip().splitlines()[0],
-            description=f"Build a {name} packet. Fields not given keep their defaults.",
-            formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+            help=summary_line,
+            description=f"Build a {name} packet: {summary_line}. "
+            "Fields not given keep their defaults; numbers may be decimal or 0x hex, "
+            "and fields with named values take the name too.",
+            epilog=KIND_EPILOG,
         )
         _add_field_options(kind, cls)
         kind.add_argument(
             "--no-crc", action="store_true", help="print without CRC / check quadlets"
         )
-        kind.add_argument("--json", action="store_true", help="also print the decoded fields")
+        kind.add_argument(
+            "--json",
+            action="store_true",
+            help="print one JSON object (the hex and the decoded fields) instead",
+        )
         kind.set_defaults(handler=run_encode, packet_class=cls)
 
 
@@ -125,8 +148,143 @@ def _kind_name(cls: type[Any]) -> str:
     return str(getattr(layout, "name", None) or cls.NAME)
 
 
+#: What each field is, for ``encode KIND --help``.
+FIELD_MEANINGS = {
+    "destination_id": "destination node ID (bus << 6 | PHY ID; 0xffff: broadcast)",
+    "source_id": "source node ID (bus << 6 | PHY ID)",
+    "tlabel": "transaction label: pairs a response with its request",
+    "retry": "retry code",
+    "priority": "priority (0 on a cable bus)",
+    "offset": "destination offset: the address inside the node",
+    "quadlet_data": "the quadlet written or read",
+    "data_length": "bytes in the data block (computed from --data when omitted)",
+    "extended_tcode": "lock operation",
+    "data": "data block, as hex bytes",
+    "data_crc": "data block CRC (computed when omitted)",
+    "header_crc": "header CRC (computed when omitted)",
+    "rcode": "response code",
+    "reserved": "reserved bits (0 in a sound packet)",
+    "tag": "stream data format tag",
+    "channel": "stream channel",
+    "sy": "synchronization code",
+    "phy_id": "physical ID of the node",
+    "inverse": "check quadlet, the complement of the first (computed when omitted)",
+    "link_active": "the node's link layer is active",
+    "gap_count": "gap count",
+    "scode": "speed the PHY can do",
+    "phy_delay": "worst-case repeater delay",
+    "contender": "contends for isochronous resource manager",
+    "power_class": "power consumed or supplied",
+    "initiated_reset": "this node started the bus reset",
+    "more_packets": "another self-ID packet of this node follows",
+    "sequence": "which extended self-ID packet (0..2)",
+    "root_id": "PHY ID to become root (with --force-root)",
+    "force_root": "R: make root_id the root",
+    "gap_count_optimization": "T: set every PHY's gap count",
+    "type": "remote access type",
+    "page": "register page",
+    "port": "port number",
+    "register": "PHY register",
+    "value": "register value",
+    "command": "remote command",
+    "fault": "port fault",
+    "connected": "port connected",
+    "bias": "bias detected",
+    "disabled": "port disabled",
+    "ok": "command accepted",
+    "code": "ack code",
+    "parity": "check nibble, the complement of the code (computed when omitted)",
+}
+for _port in ("port0", "port1", "port2", *(f"port{c}" for c in "abcdefgh")):
+    FIELD_MEANINGS[_port] = "port status"
+#: Fields whose values have names; either the name or the number is accepted.
+FIELD_ENUMS: dict[str, type[IntEnum]] = {
+    "retry": Retry,
+    "rcode": RCode,
+    "extended_tcode": ExtendedTCode,
+    "scode": Speed,
+    "code": AckCode,
+    **{name: PortStatus for name, meaning in FIELD_MEANINGS.items() if meaning == "port status"},
+}
+#: Short descriptions of kinds whose classes have no docstring of their own.
+KIND_SUMMARIES = {
+    "write_quadlet_request": "write one quadlet",
+    "write_block_request": "write a data block",
+    "write_response": "answer a write",
+    "read_quadlet_request": "read one quadlet",
+    "read_block_request": "read a data block",
+    "read_quadlet_response": "answer a quadlet read",
+    "read_block_response": "answer a block read",
+    "link_on": "Link-on: wake the link layer of a PHY",
+    "remote_command": "Remote command: ask another PHY to act on one of its ports",
+    "remote_confirmation": "Remote confirmation: a PHY's answer to a remote command",
+    "ack": "Acknowledge: a 4-bit ack code followed by its complement",
+}
+
+
+def _kind_summary(cls: type[Any], name: str) -> str:
+    doc = (cls.__doc__ or "").strip()
+    # A dataclass without a docstring gets its signature as one: not for people.
+    text = doc.splitlines()[0] if doc and not doc.startswith(cls.__name__ + "(") else ""
+    text = KIND_SUMMARIES.get(name, text.replace("``", "")) or name
+    layout = getattr(cls, "LAYOUT", None)
+    tcode = getattr(layout, "tcode", None)
+    return f"{text} (tcode {int(tcode):#x})" if tcode is not None else text
+
+
+def _field_widths(cls: type[Any]) -> dict[str, int]:
+    if cls is Ack:
+        return {"code": 4, "parity": 4}
+    layout = cls.LAYOUT
+    if issubclass(cls, PhyPacket):
+        return {**layout.widths, "inverse": 32}
+    return {**layout.sealed_header.widths, "data_crc": 32}
+
+
+def field_value(name: str, width: int | None, enum: type[IntEnum] | None) -> Any:
+    """argparse type for a field: a number (or a value name) that fits in its bits."""
+
+    def parse(text: str) -> int:
+        if enum is not None and text in enum.__members__:
+            return int(enum[text])
+        try:
+            value = integer(text)
+        except argparse.ArgumentTypeError:
+            if enum is None:
+                raise
+            names = ", ".join(enum.__members__)
+            raise argparse.ArgumentTypeError(
+                f"{text!r} is neither a number nor a {name} name ({names})"
+            ) from None
+        if width is not None and not 0 <= value < 1 << width:
+            raise argparse.ArgumentTypeError(
+                f"{value} ({value:#x}) does not fit in {width} bits (0..{(1 << width) - 1:#x})"
+            )
+        return value
+
+    parse.__name__ = name  # argparse names the type in some messages
+    return parse
+
+
+def _field_help(name: str, width: int | None, enum: type[IntEnum] | None, default: Any) -> str:
+    meaning = FIELD_MEANINGS.get(name, name.replace("_", " "))
+    size = f"{width} bits: " if width else ""
+    text = size + meaning
+    if enum is not None:
+        text += "; " + ", ".join(f"{int(m)} {m.name}" for m in enum)
+    if default is not None and default is not dataclasses.MISSING and "omitted" not in meaning:
+        shown = f"{default:#x}" if isinstance(default, int) and default > 255 else default
+        if isinstance(default, IntEnum):
+            shown = default.name
+        elif isinstance(default, bytes):
+            shown = default.hex() or "empty"
+        text += f" (default {shown})"
+    return text
+
+
 def _add_field_options(parser: argparse.ArgumentParser, cls: type[Any]) -> None:
     layout_names: tuple[str, ...] = getattr(getattr(cls, "LAYOUT", None), "names", ())
+    widths = _field_widths(cls)
     for field in dataclasses.fields(cls):
         if field.name == "trailing":
             continue
@@ -134,37 +292,31 @@ def _add_field_options(parser: argparse.ArgumentParser, cls: type[Any]) -> None:
             continue  # e.g. phy_id, which a PHY configuration packet does not carry
         option = "--" + field.name.replace("_", "-")
         default = field.default
+        enum = FIELD_ENUMS.get(field.name)
+        width = widths.get(field.name)
         if field.type == "bool":
             parser.add_argument(
-                option, action=argparse.BooleanOptionalAction, default=default, help=field.name
+                option,
+                action=argparse.BooleanOptionalAction,
+                default=default,
+                help=FIELD_MEANINGS.get(field.name, field.name),
             )
         elif field.type == "bytes":
             parser.add_argument(
-                option, type=hex_bytes_argument, default=default, metavar="HEX", help="hex bytes"
+                option,
+                type=hex_bytes_argument,
+                default=default,
+                metavar="HEX",
+                help=_field_help(field.name, None, None, default),
             )
         else:
-            computed = default is None or (field.name == "data_length" and default == -1)
             parser.add_argument(
                 option,
-                type=integer,
+                type=field_value(field.name, width, enum),
                 default=default,
-                metavar="N",
-                help="computed when omitted" if computed else _field_help(field.name),
+                metavar="NAME|N" if enum is not None else "N",
+                help=_field_help(field.name, width, enum, default),
             )
-
-
-def _field_help(name: str) -> str:
-    return {
-        "destination_id": "16-bit destination (bus << 6 | node)",
-        "source_id": "16-bit source (bus << 6 | node)",
-        "tlabel": "transaction label 0..63",
-        "retry": "0 retry_1, 1 retry_X, 2 retry_A, 3 retry_B",
-        "rcode": "0 complete, 4 conflict, 5 data, 6 type, 7 address error",
-        "offset": "48-bit destination offset",
-        "extended_tcode": "1 mask_swap, 2 compare_swap, 3 fetch_add, 4 little_add, "
-        "5 bounded_add, 6 wrap_add, 7 vendor_dependent",
-        "code": "ack code: " + ", ".join(f"{c.value} {c.name}" for c in AckCode),
-    }.get(name, name)
 
 
 def hex_bytes_argument(text: str) -> bytes:
@@ -186,11 +338,12 @@ def run_encode(args: argparse.Namespace) -> int:
     except TypeError as error:
         raise CliError(str(error)) from None
     raw = encode(packet, crc=not args.no_crc)
-    print(raw.hex() if isinstance(packet, Ack) else quadlets_hex(raw))
+    text = raw.hex() if isinstance(packet, Ack) else quadlets_hex(raw)
     if args.json:
-        print(
-            json.dumps(to_json(decode(raw, crc=not args.no_crc, strict=False, kind=_kind(packet))))
-        )
+        decoded = decode(raw, crc=not args.no_crc, strict=False, kind=_kind(packet))
+        print(json.dumps({"hex": text, **to_json(decoded)}))
+    else:
+        print(text)
     return 0
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 from typing import Any
@@ -73,8 +74,14 @@ def run(args: argparse.Namespace) -> int:
         (not args.no_plot, args.plot, "--plot"),
         (not args.no_capture, args.capture, "--capture"),
     ):
-        if wanted and not path.parent.exists():
+        if not wanted:
+            continue
+        if path.is_dir():
+            raise CliError(f"{option} {path}: is a directory; name a file in it")
+        if not path.parent.is_dir():
             raise CliError(f"{option} {path}: directory {path.parent} does not exist")
+        if not os.access(path.parent, os.W_OK):
+            raise CliError(f"{option} {path}: directory {path.parent} is not writable")
     from fw1394.demo import run_demo
     from fw1394.demo.report import plot, summary, traffic
     from fw1394.transport.bus_host import BusError, TransactionError
@@ -147,7 +154,7 @@ def _print_traffic(path: str, stats: dict[str, Any]) -> None:
     print(
         f"capture           {path}: {stats.get('records_read', 0)} records "
         f"({records.get('async_packet', 0)} packets, {stats.get('bus_resets', 0)} bus resets), "
-        f"fw1394 dissect {path} -t for every transaction"
+        f"fw1394 dissect {path} --transactions for every transaction"
     )
     kinds = ", ".join(f"{n} {k}" for k, n in stats.get("transactions", {}).items())
     print(f"transactions      {kinds}")

@@ -5,8 +5,12 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from typing import TYPE_CHECKING
 
 from fw1394.cli.common import CliError, integer
+
+if TYPE_CHECKING:
+    from fw1394.capture.formats.sources import PortTally
 
 EPILOG = """\
 formats (detected, or named with --format):
@@ -15,23 +19,65 @@ formats (detected, or named with --format):
   nosy     nosy-dump --output files
   kernel   Linux kernel text: firewire tracepoints, firewire-ohci debug lines
 
+display filter (-Y), with the field names of `fw1394 wireshark-dissector`
+(fw1394.tcode or tcode): == != < <= > >=, && and, || or, ! not, parentheses,
+integers (12, 0x1f), value names (read_quadlet_request, resp_complete,
+ack_pending), durations (100us, 1.5ms). A field missing from a row fails
+every comparison. Fields (docs/dissect.md has more):
+{fields}
+
 examples:
   fw1394 dissect trace.pcapng
-  fw1394 dissect trace.pcapng -t --node 2 --tcode read_block_request
+  fw1394 dissect trace.pcapng --transactions --node 2 --tcode read_block_request
+  fw1394 dissect trace.pcapng -Y 'tcode == read_quadlet_request && dst == 0xffc1'
+  fw1394 dissect trace.pcapng --transactions -Y 'rcode != resp_complete || latency > 100us'
+  fw1394 dissect trace.pcapng -t ud -c 20             first 20 packets, UTC times
+  fw1394 capture -w - -c 100 | fw1394 dissect -       from a pipe
   fw1394 dissect dmesg.txt --stats --json
   fw1394 dissect trace.pcapng --plot-latency latency.png --plot-size size.png
+
+exit status: 0 when records were read (even if none matched), 2 when the
+input is unreadable, nothing in it was recognised, or it was cut short
+(what was read before is still shown, as tshark does).
 """
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    from fw1394.capture.views.display_filter import help_lines
+    from fw1394.capture.views.time_format import FORMATS
+
     parser = subparsers.add_parser(
         "dissect",
         help="show the packets, transactions or statistics of a trace",
         description="Read a 1394 trace and show its packets, transactions, statistics or ROMs.",
-        epilog=EPILOG,
+        epilog=EPILOG.format(fields="\n".join(help_lines())),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("file", help="trace file")
+    parser.add_argument("file", nargs="?", help="trace file, or - for standard input")
+    parser.add_argument(
+        "-r", "--read-file", metavar="FILE", help="trace file, or - for standard input (as tshark)"
+    )
+    parser.add_argument(
+        "-Y",
+        "--display-filter",
+        metavar="EXPR",
+        help="show only packets (or transactions) matching EXPR, e.g. 'tcode == 4 && rcode != 0'",
+    )
+    parser.add_argument(
+        "-c",
+        "--count",
+        type=positive,
+        metavar="COUNT",
+        help="read only the first COUNT records (as tshark -r -c), whatever the view",
+    )
+    parser.add_argument(
+        "-t",
+        "--time-format",
+        choices=tuple(FORMATS),
+        default="r",
+        metavar="FORMAT",
+        help="time column: " + "; ".join(f"{k} {v}" for k, v in FORMATS.items()),
+    )
     parser.add_argument(
         "--format",
         choices=("auto", "fw1394", "udp", "nosy", "kernel"),
@@ -46,7 +92,6 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="what to show (default: packets)",
     )
     views.add_argument(
-        "-t",
         "--transactions",
         dest="view",
         action="store_const",
@@ -92,6 +137,14 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.set_defaults(handler=run)
 
 
+def positive(text: str) -> int:
+    """argparse type: an integer above zero."""
+    value = integer(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"{text!r} is not above zero")
+    return value
+
+
 def tcode_values(texts: list[str]) -> frozenset[int]:
     from fw1394.packets import TCode
 
@@ -117,6 +170,7 @@ def tcode_values(texts: list[str]) -> frozenset[int]:
 def run(args: argparse.Namespace) -> int:
     try:
         from fw1394.capture.formats import sources
+        from fw1394.capture.views.display_filter import DisplayFilter, FilterError
         from fw1394.capture.views.dissection import Dissection, Options
         from fw1394.capture.views.trace_plots import (
             PlotError,
@@ -128,16 +182,33 @@ def run(args: argparse.Namespace) -> int:
         # numpy carries the bulk path; without it there is nothing to dissect with.
         raise CliError(f"fw1394 dissect needs {error.name}: pip install {error.name}") from None
 
-    if not os.path.isfile(args.file):
-        raise CliError(f"{args.file}: no such file")
+    path = _input_path(args)
     plots = args.plot_latency or args.plot_size
     if plots:
         try:
             require_matplotlib()
         except PlotError as error:
             raise CliError(str(error)) from None
+    for option, target in (("--plot-latency", args.plot_latency), ("--plot-size", args.plot_size)):
+        if target is None:
+            continue
+        if os.path.isdir(target):
+            raise CliError(f"{option} {target}: is a directory; name a PNG file")
+        parent = os.path.dirname(target) or "."
+        if not os.path.isdir(parent):
+            raise CliError(f"{option} {target}: directory {parent} does not exist")
     if args.threads < 1:
         raise CliError("--threads must be at least 1")
+    if not 0 < args.port < 65536:
+        raise CliError(f"--port {args.port} is not a UDP port")
+    display_filter = None
+    if args.display_filter is not None:
+        if args.view not in ("packets", "transactions"):
+            raise CliError("-Y filters the packet and transaction views, not --" + args.view)
+        try:
+            display_filter = DisplayFilter(args.display_filter, args.view)
+        except FilterError as error:
+            raise CliError(str(error)) from None
     options = Options(
         view=args.view,
         output="json" if args.json else "csv" if args.csv else "text",
@@ -149,10 +220,23 @@ def run(args: argparse.Namespace) -> int:
         verify_crc=True if args.verify_crc else None,
         workers=args.threads,
         want_plots=bool(plots),
+        display_filter=display_filter,
+        count=args.count,
+        time_format=args.time_format,
     )
+    name = "standard input" if path == sources.STDIN else path
+    ports = sources.PortTally((args.port,))
     try:
-        fmt = sources.detect(args.file) if args.format == "auto" else args.format
-        jobs = sources.jobs(args.file, fmt, (args.port,))
+        if path == sources.STDIN and args.format != "auto":
+            fmt = args.format  # nothing to look at first: a live log is read as it comes
+            jobs = sources.stream_jobs(sys.stdin.buffer, fmt, ports)
+        elif path == sources.STDIN:
+            stream, head = sources.open_stream(sys.stdin.buffer)
+            fmt = sources.detect_head(head, name)
+            jobs = sources.stream_jobs(stream, fmt, ports)
+        else:
+            fmt = sources.detect(path) if args.format == "auto" else args.format
+            jobs = sources.jobs(path, fmt, ports)
         outcome = Dissection(options, sys.stdout).run(jobs)
     except sources.SourceError as error:
         raise CliError(str(error)) from None
@@ -163,13 +247,28 @@ def run(args: argparse.Namespace) -> int:
     except (OSError, ValueError, RuntimeError, IndexError, KeyError) as error:
         # The readers turn bad input into messages; reaching here is a bug in fw1394.
         problem = f"{type(error).__name__}: {error}"
-        raise CliError(f"{args.file}: internal error ({problem}); please report it") from None
+        raise CliError(f"{name}: internal error ({problem}); please report it") from None
+    sys.stdout.flush()
     for line in outcome.issue_lines:
-        print(f"fw1394: {args.file}: {line}", file=sys.stderr)
+        print(f"fw1394: {name}: {line}", file=sys.stderr)
     hidden = outcome.issues - len(outcome.issue_lines)
     if hidden > 0:
-        print(f"fw1394: {args.file}: ... and {hidden} more problems", file=sys.stderr)
-    title = os.path.basename(args.file)
+        print(f"fw1394: {name}: ... and {hidden} more problems", file=sys.stderr)
+    if outcome.cut_short:
+        raise CliError(
+            f"{name} appears to have been cut short in the middle of a record "
+            f"({outcome.records} records read before it)"
+        )
+    if not outcome.records:
+        return _nothing_read(name, fmt, args.port, ports)
+    if display_filter is not None and not outcome.shown:
+        what = "transaction" if args.view == "transactions" else "record"
+        print(
+            f"fw1394: {name}: no {what} matched -Y {args.display_filter!r} "
+            f"({outcome.records} records read)",
+            file=sys.stderr,
+        )
+    title = os.path.basename(path) if path != sources.STDIN else "stdin"
     try:
         if args.plot_latency:
             plot_latency(outcome.stats, args.plot_latency, title)
@@ -178,3 +277,43 @@ def run(args: argparse.Namespace) -> int:
     except PlotError as error:
         raise CliError(str(error)) from None
     return 0
+
+
+_FORMAT_NAMES = {"kernel": "Linux kernel firewire text", "nosy": "nosy-dump records"}
+
+
+def _input_path(args: argparse.Namespace) -> str:
+    if args.file is not None and args.read_file is not None:
+        raise CliError(f"two traces given ({args.file} and -r {args.read_file}): give one")
+    path: str | None = args.file if args.file is not None else args.read_file
+    if path is None:
+        raise CliError("no trace given: name a file (or -r FILE), or - for standard input")
+    if path == "-":
+        if sys.stdin.isatty():
+            raise CliError("standard input is a terminal: pipe a trace into fw1394 dissect -")
+        return path
+    if os.path.isdir(path):
+        raise CliError(f"{path}: is a directory, not a trace")
+    if not os.path.isfile(path):
+        raise CliError(f"{path}: no such file")
+    return path
+
+
+def _nothing_read(name: str, fmt: str, port: int, ports: PortTally) -> int:
+    """Explain an input that gave no records; 0 only for a valid, empty fw1394 trace."""
+    if fmt == "fw1394":
+        print(f"fw1394: {name}: the trace holds no packets", file=sys.stderr)
+        return 0
+    if fmt == "udp":
+        message = f"{name}: 0 Eth1394 datagrams found on UDP port {port}"
+        busiest = ports.busiest()
+        if busiest:
+            seen = ", ".join(str(p) for p in busiest)
+            message += f"; there is UDP traffic on port {seen}: try --port {busiest[0]}"
+        else:
+            message += " and no UDP traffic on other ports; name the port with --port"
+        raise CliError(message)
+    raise CliError(
+        f"{name}: nothing recognised as {_FORMAT_NAMES.get(fmt, fmt)} (0 records); "
+        "check the file, or name its format with --format"
+    )

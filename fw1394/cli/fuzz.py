@@ -18,7 +18,10 @@ examples:
   fw1394 fuzz run inproc:memory --defect wedge-after-long-block-write --max-cases 2000
   fw1394 fuzz run bus:default/0 --model memory --duration 60
   fw1394 fuzz run udp:127.0.0.1:1394 --eth1394 --model qla1 --duration 60
+  fw1394 fuzz run udp:127.0.0.1:11394 --model memory --restart ./start-node.sh --duration 60
+  fw1394 fuzz run inproc:memory --jobs 2 --max-cases 100000 --seed 3
   fw1394 fuzz replay fuzz-findings                       do the saved findings still happen?
+  fw1394 fuzz replay fuzz-findings --restart ./start-node.sh
   fw1394 fuzz defects qla1                               the bugs --defect can plant
   fw1394 fuzz serve memory --listen 127.0.0.1:11394 --defect answers-other-node
 """
@@ -43,6 +46,12 @@ def register(subparsers: Any) -> None:
     replay = actions.add_parser("replay", help="replay saved findings on a fresh node")
     replay.add_argument("directory", metavar="DIR", help="findings directory (or one .json)")
     replay.add_argument("--target", default=None, help="replay on this target instead")
+    replay.add_argument(
+        "--restart",
+        default=None,
+        metavar="CMD",
+        help="remote targets: shell command run before each stream to bring up a fresh node",
+    )
     replay.add_argument("--json", action="store_true", help="one JSON line per finding")
     replay.set_defaults(handler=run_replay)
     serve = actions.add_parser(
@@ -116,10 +125,35 @@ def add_run_options(run: argparse.ArgumentParser) -> None:
     transport = run.add_argument_group("remote targets")
     transport.add_argument("--eth1394", action="store_true", help="udp: JHU Eth1394 framing")
     transport.add_argument("--timeout", type=float, default=0.5, help="reply timeout (s)")
-    transport.add_argument("--dead-after", type=float, default=3.0, help="give up after S s")
+    transport.add_argument(
+        "--dead-after",
+        type=float,
+        default=3.0,
+        help="give up when the node stays silent (or does not come back from a restart) S s",
+    )
+    transport.add_argument(
+        "--restart",
+        default=None,
+        metavar="CMD",
+        help="shell command that brings up a fresh node, run after a wedge or a death and "
+        "before every replay while shrinking ({worker}: the worker number)",
+    )
+    transport.add_argument(
+        "--jobs",
+        type=integer,
+        default=1,
+        metavar="N",
+        help="N worker processes, seeds derived from --seed; remote targets need {worker} "
+        "in TARGET (one node each)",
+    )
     out = run.add_argument_group("inputs and findings")
     out.add_argument("--corpus", action="append", default=[], metavar="FILE", help="seeds")
     out.add_argument("--findings", default="fuzz-findings", metavar="DIR", help="reproducers")
+    saved = out.add_mutually_exclusive_group()
+    saved.add_argument("--force", action="store_true", help="replace the findings already in DIR")
+    saved.add_argument(
+        "--merge", action="store_true", help="keep the findings in DIR, add new signatures"
+    )
     out.add_argument("--shrink-budget", type=integer, default=300, help="replays per finding")
     out.add_argument("--history", type=integer, default=512, help="packets kept per finding")
     out.add_argument("--json", action="store_true", help="print the report as JSON")
@@ -165,11 +199,20 @@ def settings_of(args: argparse.Namespace) -> Any:
 
 
 def run_campaign(args: argparse.Namespace) -> int:
-    from fw1394.fuzz import campaign, findings
+    from fw1394.fuzz import findings, workers
     from fw1394.fuzz.progress import Progress
 
     settings = settings_of(args)
+    directory = Path(args.findings)
+    try:
+        earlier = findings.prepare(directory, force=args.force, merge=args.merge)
+    except (findings.FindingsExist, ValueError) as error:
+        raise CliError(str(error)) from None
+    if args.jobs < 1:
+        raise CliError("--jobs must be at least 1")
     if args.engine == "hypothesis":
+        if args.jobs != 1 or args.restart is not None:
+            raise CliError("the hypothesis engine runs one in-process job, without --restart")
         if settings.max_cases is None and settings.duration is None:
             raise CliError("the hypothesis engine needs --max-cases or --duration")
         try:
@@ -179,11 +222,13 @@ def run_campaign(args: argparse.Namespace) -> int:
         report = _guarded(lambda: hypo.run(settings))
     else:
         show = sys.stderr.isatty() if args.progress is None else args.progress
+        show = show and args.jobs == 1
         progress = Progress(settings.max_cases, settings.duration) if show else None
-        report = _guarded(lambda: campaign.run(settings, progress))
-    directory = Path(args.findings)
+        report = _guarded(
+            lambda: workers.run(settings, args.jobs, restart=args.restart, progress=progress)
+        )
     try:
-        findings.save(directory, report.findings)
+        findings.save(directory, findings.merged(earlier, report.findings))
         (directory / "report.json").write_text(json.dumps(report.to_json(), indent=2) + "\n")
     except OSError as error:
         raise CliError(f"cannot save findings in {directory}: {error.strerror or error}") from None
@@ -206,7 +251,7 @@ def run_replay(args: argparse.Namespace) -> int:
         raise CliError(str(error)) from None
     if not loaded:
         raise CliError(f"no findings in {args.directory}")
-    results = _guarded(lambda: replay_all(loaded, args.target))
+    results = _guarded(lambda: replay_all(loaded, args.target, args.restart))
     for result in results:
         if args.json:
             print(json.dumps(result.to_json()))

@@ -13,6 +13,7 @@ import importlib
 import pkgutil
 import sys
 from collections.abc import Sequence
+from typing import Any, NoReturn
 
 import fw1394
 from fw1394.cli.common import CliError, fail
@@ -27,8 +28,36 @@ Run `fw1394 COMMAND --help` for each command's options and examples.
 """
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """A parser whose errors are one line on stderr (exit 2), not a usage block.
+
+    Subparsers are made of the parser's own class, so every subcommand and
+    sub-subcommand reports its errors the same way.
+    """
+
+    def error(self, message: str) -> NoReturn:
+        text = " ".join(message.split())
+        self.exit(2, f"{self.prog}: error: {text} (see {self.prog} --help)\n")
+
+    def add_subparsers(self, **kwargs: Any) -> Any:
+        kwargs.setdefault("parser_class", SubcommandParser)
+        return super().add_subparsers(**kwargs)
+
+
+class SubcommandParser(OneLineParser):
+    """A subcommand's parser: it reports its own unknown arguments, naming itself."""
+
+    def parse_known_args(  # type: ignore[override]
+        self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
+    ) -> tuple[argparse.Namespace, list[str]]:
+        parsed, extras = super().parse_known_args(args, namespace)
+        if extras:
+            self.error(f"unrecognized arguments: {' '.join(extras)}")
+        return parsed, extras
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="fw1394",
         description=DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter,

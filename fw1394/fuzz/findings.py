@@ -17,6 +17,7 @@ from typing import Any
 from fw1394.fuzz.trial import Entry
 
 FORMAT = "fw1394-fuzz-finding/1"
+_PATTERN = "[0-9][0-9][0-9]-*.json"
 
 
 @dataclass
@@ -39,6 +40,8 @@ class Finding:
     #: After shrinking: the stream reproduces the violation on a fresh node.
     reproduced: bool | None = None
     shrunk: bool = False
+    #: Restarts of the node this violation led to: command, exit status, output.
+    restarts: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def key(self) -> tuple[str, str]:
@@ -80,7 +83,8 @@ class Finding:
             "reproduced",
             "shrunk",
         }
-        return cls(**{k: data[k] for k in names}, stream=stream)
+        restarts = [dict(r) for r in data.get("restarts", [])]
+        return cls(**{k: data[k] for k in names}, stream=stream, restarts=restarts)
 
 
 def file_name(index: int, finding: Finding) -> str:
@@ -88,14 +92,56 @@ def file_name(index: int, finding: Finding) -> str:
     return f"{index:03d}-{slug.strip('-')[:80]}.json"
 
 
+class FindingsExist(Exception):
+    """A findings directory already holds findings and was not to be replaced."""
+
+
+def holds_findings(directory: Path) -> bool:
+    """``directory`` holds reproducers or a report of an earlier run."""
+    if not directory.is_dir():
+        return False
+    return (directory / "report.json").exists() or any(directory.glob(_PATTERN))
+
+
+def merged(*runs: list[Finding]) -> list[Finding]:
+    """The findings of several runs, one per (oracle, signature): the first one seen
+    (a shrunk one before one that is not)."""
+    kept: dict[tuple[str, str], Finding] = {}
+    for findings in runs:
+        for finding in findings:
+            old = kept.get(finding.key)
+            if old is None or (finding.shrunk and not old.shrunk):
+                kept[finding.key] = finding
+    return list(kept.values())
+
+
+def prepare(directory: Path, *, force: bool = False, merge: bool = False) -> list[Finding]:
+    """Check that a run may save into ``directory``; the findings to merge with.
+
+    Raises :class:`FindingsExist` when the directory holds an earlier run's
+    findings and neither ``force`` (replace them) nor ``merge`` (keep them and
+    add the new signatures) is given; ``ValueError`` for a file that is not a
+    finding.
+    """
+    if not holds_findings(directory):
+        return []
+    if merge:
+        return [finding for _, finding in load(directory)]
+    if force:
+        return []
+    raise FindingsExist(
+        f"{directory} already holds findings: --force replaces them, --merge adds to them"
+    )
+
+
 def save(directory: Path, findings: list[Finding]) -> list[Path]:
     """Write each finding as ``NNN-oracle-signature.json``; the paths written.
 
-    Findings of an earlier run in the same directory are removed first, so the
-    directory always holds one run's reproducers.
+    The reproducers already in the directory are removed first, so it holds
+    exactly ``findings`` (merge them first with :func:`merged` to keep them).
     """
     directory.mkdir(parents=True, exist_ok=True)
-    for old in directory.glob("[0-9][0-9][0-9]-*.json"):
+    for old in directory.glob(_PATTERN):
         old.unlink()
     paths = []
     for index, finding in enumerate(findings, 1):

@@ -1,4 +1,8 @@
-"""Replaying saved findings: does each violation still happen?"""
+"""Replaying saved findings: does each violation still happen?
+
+With a restart hook a remote node is brought up afresh before every stream,
+so findings that need a state built up from power-up reproduce too.
+"""
 
 from __future__ import annotations
 
@@ -6,11 +10,11 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from fw1394.fuzz.campaign import replayer
+from fw1394.fuzz.campaign import open_campaign_target, replayer
 from fw1394.fuzz.findings import Finding
+from fw1394.fuzz.restart import RestartHook, hook_of
 from fw1394.fuzz.settings import Settings
 from fw1394.fuzz.target import Target
-from fw1394.fuzz.targets import open_target
 
 
 @dataclass(frozen=True)
@@ -41,10 +45,16 @@ class ReplayResult:
         }
 
 
-def replay_all(loaded: list[tuple[Path, Finding]], target: str | None) -> list[ReplayResult]:
+def replay_all(
+    loaded: list[tuple[Path, Finding]],
+    target: str | None,
+    restart: str | RestartHook | None = None,
+) -> list[ReplayResult]:
     """Replay every finding, on ``target`` if given, else on the one it was found on.
 
-    Targets are opened once per distinct setting, so a remote node is joined once.
+    ``restart`` (a shell command or a callable) brings a remote node up afresh
+    before each stream. Targets are opened once per distinct setting, so a
+    remote node is joined once.
     """
     opened: dict[Settings, Target] = {}
     results = []
@@ -56,7 +66,10 @@ def replay_all(loaded: list[tuple[Path, Finding]], target: str | None) -> list[R
                 keep = settings.defects if target.startswith("inproc:") else ()
                 settings = replace(settings, target=target, defects=keep)
             if settings not in opened:
-                opened[settings] = open_target(settings)
+                remote = settings.scheme != "inproc"
+                opened[settings] = open_campaign_target(
+                    settings, hook_of(restart) if remote else None
+                )
             seen = replayer(settings, opened[settings])(finding.stream)
             others = tuple(sorted(f"{o}:{s}" for o, s in seen - {finding.key}))
             results.append(

@@ -34,6 +34,9 @@ from fw1394.packets.fast import encode_packet
 READBACK_LIMIT = 512
 _ACCEPTED = frozenset({AckCode.ack_complete, AckCode.ack_pending})
 _STOPPING = frozenset({"liveness", "process"})
+#: Writes remembered to name in a sweep finding, and named at most.
+_WRITES_KEPT = 64
+_WRITES_NAMED = 4
 
 
 class Entry(NamedTuple):
@@ -87,6 +90,13 @@ class Trial:
         self._sweep_ok: dict[int, bool] = {}
         self._probes: dict[tuple[int, int], Wire] = {}
         self._node_bits_only = reference.policy.ignore_bus_id
+        # Offsets of the writes and locks sent as cases (numbered), and the number of
+        # the last one before each swept register was read: a register that changes
+        # names the writes since its last read.
+        self._writes: deque[tuple[int, int]] = deque(maxlen=_WRITES_KEPT)
+        self._write_count = 0
+        self._read_after: dict[int, int] = {}
+        self._changed: set[int] = set()
 
     # -- driving ------------------------------------------------------------------------
     def case(self, raw: bytes, label: str = "") -> list[Violation]:
@@ -136,6 +146,7 @@ class Trial:
         self.reference = reference
         self.stream.clear()
         self._sweep_ok.clear()
+        self._changed.clear()
         self.broken = False
 
     # -- one batch ----------------------------------------------------------------------
@@ -212,6 +223,9 @@ class Trial:
         kind = family(packet)
         if kind in ("write", "lock"):
             self._write_status = _status(reply, packet, wire.damaged, self.reference)
+            if self._write_status == "accepted":
+                self._write_count += 1
+                self._writes.append((self._write_count, getattr(packet, "offset", 0)))
         if is_silent(reply):
             self.checks["silence"] += 1
             if is_silent(seen):
@@ -235,11 +249,19 @@ class Trial:
         offset = getattr(wire.packet, "offset", 0)
         was_ok = self._sweep_ok.get(offset)
         self._sweep_ok[offset] = field is None
+        since = self._read_after.get(offset, 0)
+        self._read_after[offset] = self._write_count
         if field is None:
+            self._changed.discard(offset)
             return None
+        if offset in self._changed:
+            return None  # the change was reported when it happened
         expected, observed = (f"register {offset:#x}: {describe(r)}" for r in (shown, seen))
         if was_ok:
-            # It read right last time: something since then changed it.
+            self._changed.add(offset)
+            # It read right last time: something since then changed it, most likely
+            # a write elsewhere (a write to the register itself has its read-back).
+            observed += _after_writes([o for n, o in reversed(self._writes) if n > since])
             return Violation("state", f"sweep-changed:{field}", expected, observed)
         return Violation("reply", f"read:{field}", expected, observed)
 
@@ -302,6 +324,16 @@ def _status(reply: Reply, packet: AsyncPacket | None, damaged: bool, reference: 
         return "refused"
     reason = silence_reason(packet, damaged, reference.node_id, reference.policy)
     return "accepted" if reason == "broadcast" else "dropped"
+
+
+def _after_writes(offsets: list[int]) -> str:
+    """Which writes came between two reads of a register that changed (latest first)."""
+    if not offsets:
+        return ""
+    distinct = list(dict.fromkeys(offsets))
+    shown = ", ".join(f"{o:#x}" for o in distinct[:_WRITES_NAMED])
+    more = f" and {len(distinct) - _WRITES_NAMED} more" if len(distinct) > _WRITES_NAMED else ""
+    return f", changed after accepted writes to {shown}{more}"
 
 
 def _offset_text(packet: AsyncPacket | None) -> str:

@@ -35,6 +35,7 @@ from fw1394.engine.fast_responder import FastResponder
 from fw1394.engine.responder import Reply, decode_received
 from fw1394.packets import AckCode, AsyncPacket, PacketError
 from fw1394.packets.accessors import TLABEL
+from fw1394.packets.ack import ack_code
 from fw1394.packets.fast import decode_packet, encode_packet
 from fw1394.packets.nodeid import BROADCAST_ID, node_id, phy_of
 from fw1394.transport.membership import BusReset, Change, Excluded, Refused
@@ -257,11 +258,11 @@ class RequesterLink(LinkLayer):
             label = None if fast is None else fast(header.sender_phy, payload, now)
             if label is None:
                 self.on_ack(header.sender_phy, header.sequence, payload, now)
-            elif label >= 0:  # a concatenated response completed: the link acks it
-                ack = _pack_ack(ACK_COMPLETE_BYTE, label, 0, header.sequence)
-                self.send(ACK, header.sender_phy, ack)
             else:
-                self.flush()  # as after any ack alone
+                if label >= 0:  # a concatenated response completed: the link acks it
+                    ack = _pack_ack(ACK_COMPLETE_BYTE, label, 0, header.sequence)
+                    self.send(ACK, header.sender_phy, ack)
+                self.flush()  # as the general path: the end may have freed a label
         elif kind == ASYNC_PACKET:
             self.on_response(header.sender_phy, header.sequence, payload, now)
         else:
@@ -276,7 +277,7 @@ class RequesterLink(LinkLayer):
         # Unpacked in place rather than through parse_ack's AckPayload: every
         # transaction has one.
         byte, tlabel, _, _ = _unpack_ack(payload)
-        self.requester.receive_ack(node_id(sender), tlabel, byte >> 4, now)
+        self.requester.receive_ack(node_id(sender), tlabel, ack_code(byte), now)
         if len(payload) > ACK_SIZE:
             # The response of the same tenure, acked like a split one (the link acks
             # whatever response it takes) under the ack frame's sequence number.
@@ -289,11 +290,13 @@ class RequesterLink(LinkLayer):
         try:
             packet = decode_packet(payload)
         except PacketError:
-            return  # line noise (a reserved tcode): nothing on a real bus acks it
-        code = self.requester.receive_response(packet, now)
-        if code is not None:
-            tlabel: int = getattr(packet, "tlabel", 0)
-            self.send(ACK, sender, _pack_ack(ACK_BYTES[code], tlabel, 0, sequence))
+            packet = None  # line noise (a reserved tcode): nothing on a real bus acks it
+        if packet is not None:
+            code = self.requester.receive_response(packet, now)
+            if code is not None:
+                tlabel: int = getattr(packet, "tlabel", 0)
+                self.send(ACK, sender, _pack_ack(ACK_BYTES[code], tlabel, 0, sequence))
+        self.flush()  # the end may have freed a label a waiting request needs
 
     def flush(self) -> None:
         """Send every packet the requester has queued."""

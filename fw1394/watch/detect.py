@@ -42,8 +42,9 @@ def member_kind(bus: str, me: MemberInfo, member: MemberInfo) -> str | None:
 
 
 def kind_from_argv(argv: Sequence[str]) -> str | None:
-    """The ``--board`` of a ``node run`` command line; None if it is not one."""
-    if "node" not in argv or "run" not in argv:
+    """The ``--board`` of a node's command line (``python -m fw1394.node`` or ``fw1394
+    node run``); None if it is not one."""
+    if "fw1394.node" not in argv and ("node" not in argv or "run" not in argv):
         return None
     for position, word in enumerate(argv):
         if word == "--board" and position + 1 < len(argv):

@@ -14,7 +14,7 @@ from fw1394.capture.formats.trace_writer import write_trace
 from fw1394.cli.main import main
 
 DATA = Path(__file__).parents[1] / "data"
-VIEWS = (["-s"], ["-t"], ["-v"], ["--rom"], ["--json"], ["-t", "--csv"])
+VIEWS = (["-s"], ["--transactions"], ["-v"], ["--rom"], ["--json"], ["--transactions", "--csv"])
 
 
 def originals(tmp_path: Path) -> dict[str, bytes]:
@@ -51,6 +51,7 @@ def mutate(data: bytes, rng: random.Random) -> bytes:
     return bytes(blob)
 
 
+@pytest.mark.slow
 def test_damaged_files_of_every_format(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     rng = random.Random(1394)
     files = originals(tmp_path)
@@ -66,11 +67,13 @@ def test_damaged_files_of_every_format(tmp_path: Path, capsys: pytest.CaptureFix
         assert "Traceback" not in err
 
 
+@pytest.mark.slow
 def test_random_bytes(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     rng = random.Random(7)
     for round_number in range(40):
         path = tmp_path / f"random-{round_number}"
         path.write_bytes(bytes(rng.randrange(256) for _ in range(rng.randint(1, 3000))))
         for fmt in ("auto", "fw1394", "nosy", "kernel"):
-            assert main(["dissect", str(path), "--format", fmt, "-t", "--threads", "1"]) in (0, 2)
+            argv = ["dissect", str(path), "--format", fmt, "--transactions", "--threads", "1"]
+            assert main(argv) in (0, 2)
         capsys.readouterr()

@@ -7,10 +7,12 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
 import pytest
+from polling import wait_until
 
 from fw1394.capture.analysis.columns import decode
 from fw1394.capture.analysis.sample_traces import (
@@ -91,7 +93,21 @@ def _can_sniff() -> bool:
     return True
 
 
+def packet_socket_on(pid: int, interface: str) -> bool:
+    """Whether process ``pid`` holds a packet socket bound to ``interface``."""
+    try:
+        links = {os.readlink(fd) for fd in Path(f"/proc/{pid}/fd").iterdir()}
+    except OSError:
+        return False
+    index = socket.if_nametoindex(interface)
+    with open("/proc/net/packet") as table:
+        rows = [line.split() for line in table.readlines()[1:]]
+    # Columns: sk RefCnt Type Proto Iface R Rmem User Inode
+    return any(int(row[4]) == index and f"socket:[{row[8]}]" in links for row in rows)
+
+
 @pytest.mark.skipif(not _can_sniff(), reason="live UDP capture needs CAP_NET_RAW (root)")
+@pytest.mark.process
 def test_live_udp_capture_closes_cleanly_on_ctrl_c(tmp_path: Path) -> None:
     port = 30000 + os.getpid() % 20000
     path = tmp_path / "live.pcapng"
@@ -111,19 +127,26 @@ def test_live_udp_capture_closes_cleanly_on_ctrl_c(tmp_path: Path) -> None:
         stderr=subprocess.PIPE,
         text=True,
     )
+    assert process.stdout is not None and process.stderr is not None
+    shown: list[str] = []  # one line per captured datagram
+    reader = threading.Thread(target=lambda: shown.extend(process.stdout or ()))
+    reader.start()
     try:
-        time.sleep(1.5)
+        wait_until(lambda: packet_socket_on(process.pid, "lo"), timeout=30)
         sender = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         for index in range(4):
             sender.sendto(payload(index % 2), ("127.0.0.1", port))
             time.sleep(0.02)
         sender.close()
-        time.sleep(0.5)
+        wait_until(lambda: len(shown) >= 4, timeout=10)
         process.send_signal(signal.SIGINT)
-        out, err = process.communicate(timeout=10)
+        process.wait(10)
+        err = process.stderr.read()
     finally:
         if process.poll() is None:
             process.kill()
+        reader.join(10)
+    out = "".join(shown)
     assert process.returncode == 0, err
     assert "4 packets written" in err
     assert out.count("read_quadlet_request") == 2

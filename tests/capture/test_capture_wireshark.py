@@ -20,9 +20,13 @@ from fw1394.capture.views.lua_dissector import generate
 from fw1394.cli.main import main
 
 TSHARK = shutil.which("tshark")
-pytestmark = pytest.mark.skipif(
-    TSHARK is None, reason="tshark is not installed (Debian: apt-get install -y tshark)"
-)
+pytestmark = [
+    pytest.mark.skipif(
+        TSHARK is None, reason="tshark is not installed (Debian: apt-get install -y tshark)"
+    ),
+    pytest.mark.tshark,
+    pytest.mark.process,
+]
 #: Wireshark field -> fw1394 JSON key.
 FIELDS = {
     "fw1394.tcode": "tcode",

@@ -24,6 +24,7 @@ def fw1394(*args: str, stdin: str | None = None) -> subprocess.CompletedProcess[
     )
 
 
+@pytest.mark.process
 def test_decode_arguments_prints_summary_and_table() -> None:
     result = fw1394("decode", *QREAD.split())
     assert result.returncode == 0, result.stderr
@@ -32,6 +33,7 @@ def test_decode_arguments_prints_summary_and_table() -> None:
     assert any(line.split()[:2] == ["offset", "0xfffff0000984"] for line in table)
 
 
+@pytest.mark.process
 def test_decode_json_has_the_documented_keys() -> None:
     result = fw1394("decode", "--json", *QREAD.upper().replace("FF", "ff").split())
     obj = json.loads(result.stdout)
@@ -50,6 +52,7 @@ def test_decode_json_has_the_documented_keys() -> None:
     assert obj["offset"] == 0xFFFFF0000984 and obj["header_crc_ok"] is True
 
 
+@pytest.mark.process
 def test_decode_block_json_keys() -> None:
     packet = "ffc06c10 ffd00000 00002000 000c0000 cca946ca 00000011 00000022 00000033 54289f99"
     obj = json.loads(fw1394("decode", "--json", packet).stdout)
@@ -57,6 +60,7 @@ def test_decode_block_json_keys() -> None:
     assert obj["data_length"] == 12 and obj["data_crc_ok"] is True and obj["extended_tcode"] == 0
 
 
+@pytest.mark.process
 def test_decode_stdin_tolerates_0x_case_and_spacing_and_reports_bad_lines() -> None:
     stdin = "0xFFC0F140 0xFFC1FFFF\n  0xF0000984 0x5BDD119C\n" + "\n" + "ffc0f140 12\n" + "abc\n"
     result = fw1394("decode", "--json", stdin=stdin)
@@ -68,6 +72,7 @@ def test_decode_stdin_tolerates_0x_case_and_spacing_and_reports_bad_lines() -> N
     assert "Traceback" not in result.stderr
 
 
+@pytest.mark.process
 def test_decode_stdin_one_packet_per_line() -> None:
     stdin = f"{QREAD}\n# a comment\n80458c80 7fba737f\n"
     result = fw1394("decode", "--json", stdin=stdin)
@@ -88,6 +93,7 @@ def test_decode_stdin_one_packet_per_line() -> None:
         (["zz"], "not a hex digit"),
     ],
 )
+@pytest.mark.process
 def test_decode_bad_input_is_one_line_and_exit_2(args: list[str], message: str) -> None:
     result = fw1394("decode", *args)
     assert result.returncode == 2
@@ -95,6 +101,7 @@ def test_decode_bad_input_is_one_line_and_exit_2(args: list[str], message: str) 
     assert message in result.stderr
 
 
+@pytest.mark.process
 def test_decode_lenient_shows_the_problem() -> None:
     result = fw1394("decode", "--lenient", "--json", "ffc0f140", "ffc1ffff", "f0000984", "5bdd1190")
     obj = json.loads(result.stdout)
@@ -102,11 +109,13 @@ def test_decode_lenient_shows_the_problem() -> None:
     assert obj["header_crc_ok"] is False and "header_crc" in obj["problems"][0]
 
 
+@pytest.mark.process
 def test_decode_no_crc_reports_crc_absent() -> None:
     obj = json.loads(fw1394("decode", "--no-crc", "--json", "ffc0f140 ffc1ffff f0000984").stdout)
     assert obj["header_crc"] is None and obj["header_crc_ok"] is None
 
 
+@pytest.mark.process
 def test_encode_matches_the_kernel_vector() -> None:
     result = fw1394(
         "encode",
@@ -125,6 +134,7 @@ def test_encode_matches_the_kernel_vector() -> None:
     assert result.stdout.strip() == QREAD
 
 
+@pytest.mark.process
 def test_encode_block_write_matches_the_captured_jhu_datagram() -> None:
     result = fw1394(
         "encode",
@@ -161,14 +171,17 @@ def test_encode_then_decode_every_kind(kind: str, capsys: pytest.CaptureFixture[
     assert obj.get("tcode_name", obj.get("kind")) == kind
 
 
+@pytest.mark.process
 def test_encode_out_of_range_field_is_one_line() -> None:
     result = fw1394("encode", "read_quadlet_request", "--tlabel", "64")
     assert result.returncode == 2
-    assert (
-        result.stderr.strip() == "fw1394: error: tlabel: 64 (0x40) does not fit in 6 bits (0..0x3f)"
+    assert result.stderr.strip() == (
+        "fw1394 encode read_quadlet_request: error: argument --tlabel: "
+        "64 (0x40) does not fit in 6 bits (0..0x3f) (see fw1394 encode read_quadlet_request --help)"
     )
 
 
+@pytest.mark.process
 def test_encode_help_lists_fields() -> None:
     text = fw1394("encode", "lock_request", "--help").stdout
     for option in ("--destination-id", "--tlabel", "--offset", "--extended-tcode", "--data"):

@@ -9,6 +9,7 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
 from bus_support import processes_mentioning
 
 from fw1394.boards.snake2010.spec import ENCODER_MIDPOINT
@@ -21,6 +22,8 @@ def trajectory_rms(axis: int, seconds: float) -> float:
     return math.sqrt(sum(v * v for v in samples) / len(samples))
 
 
+@pytest.mark.process
+@pytest.mark.slow
 def test_demo_runs_servos_plots_and_cleans_up(tmp_path: Path) -> None:
     plot = tmp_path / "demo.png"
     started = time.monotonic()
@@ -65,6 +68,7 @@ def test_demo_runs_servos_plots_and_cleans_up(tmp_path: Path) -> None:
     print(f"\ndemo: {numbers['rate_hz']} Hz, {elapsed:.1f} s wall")
 
 
+@pytest.mark.process
 def test_demo_rejects_bad_arguments() -> None:
     result = subprocess.run(
         [sys.executable, "-m", "fw1394.cli.main", "demo", "--seconds", "-1"],

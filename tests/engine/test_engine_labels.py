@@ -13,6 +13,7 @@ from __future__ import annotations
 import heapq
 import itertools
 from dataclasses import dataclass, field
+from typing import cast
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -151,7 +152,7 @@ class Bench:
                     answer = self.draw.draw(st.sampled_from(ANSWER_TIMES), label="answer time")
                 self.medium.send(self.now, "response", reply.response, answer)
         elif arrival.kind == "ack":
-            label, code = arrival.item  # type: ignore[misc]
+            label, code = cast(tuple[int, int], arrival.item)
             self.requester.receive_ack(NODE, label, code, self.now)
         else:
             assert isinstance(arrival.item, AsyncPacket)
@@ -159,7 +160,7 @@ class Bench:
 
 
 @settings(
-    max_examples=150,
+    max_examples=60,
     deadline=None,
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
 )

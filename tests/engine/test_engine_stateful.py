@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import pytest
 from hypothesis import settings
 from hypothesis import strategies as st
 from hypothesis.stateful import (
@@ -371,6 +372,8 @@ class EngineMachine(RuleBasedStateMachine):
         assert self.link.requester.outstanding == 0
         assert set(self.ended) == set(self.started)
 
+
+pytestmark = pytest.mark.slow  # hundreds of generated programs, all in process
 
 EngineMachine.TestCase.settings = settings(max_examples=300, stateful_step_count=30, deadline=None)
 test_engine_state_machine = EngineMachine.TestCase

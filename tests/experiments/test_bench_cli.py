@@ -46,6 +46,8 @@ def check_quadlets(result: dict[str, Any], iterations: int) -> None:
         assert row["bands"] and sum(band["count"] for band in row["bands"]) == iterations
 
 
+@pytest.mark.process
+@pytest.mark.slow
 def test_quick_run_on_a_fresh_virtual_bus(capsys: pytest.CaptureFixture[str]) -> None:
     started = time.monotonic()
     result = bench(capsys, "--quick", "--json", "--quiet")
@@ -99,6 +101,7 @@ def snake_bus() -> Iterator[LaunchedBus]:
     assert wait_until_gone(config.name) == []
 
 
+@pytest.mark.process
 def test_a_node_of_an_existing_bus(
     snake_bus: LaunchedBus, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -119,6 +122,7 @@ def test_a_node_of_an_existing_bus(
     assert len(processes_mentioning(name)) == 3
 
 
+@pytest.mark.process
 def test_a_qla_board_behind_eth1394(capsys: pytest.CaptureFixture[str]) -> None:
     server = Eth1394Server(Rack([0, 3]), Endpoint("127.0.0.1", PORT))
     thread = threading.Thread(target=server.serve_forever, daemon=True)

@@ -99,15 +99,15 @@ def test_a_corpus_seeds_the_run(tmp_path: Path, capsys: pytest.CaptureFixture[st
 
 
 def test_the_hypothesis_engine_shrinks_its_findings(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    findings_dir: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     status = fuzz(
         "run", "inproc:memory", "--engine", "hypothesis", "--defect", "stale-tlabel",
-        "--max-cases", "60", "--findings", str(tmp_path), "--seed", "1",
+        "--max-cases", "60", "--findings", str(findings_dir), "--seed", "1",
     )  # fmt: skip
     assert status == 1
     assert "read:tlabel" in capsys.readouterr().out
-    assert all(f.shrunk for _, f in load(tmp_path))
+    assert all(f.shrunk for _, f in load(findings_dir))
 
 
 def test_defects_are_listed(capsys: pytest.CaptureFixture[str]) -> None:
@@ -137,10 +137,10 @@ def test_defects_are_listed(capsys: pytest.CaptureFixture[str]) -> None:
     ],
 )
 def test_bad_input_is_one_line(
-    args: list[str], message: str, capsys: pytest.CaptureFixture[str], tmp_path: Path
+    args: list[str], message: str, capsys: pytest.CaptureFixture[str], findings_dir: Path
 ) -> None:
     if args[0] == "run":
-        args = [*args, "--findings", str(tmp_path)]
+        args = [*args, "--findings", str(findings_dir)]
     assert fuzz(*args) == 2
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1
@@ -150,22 +150,23 @@ def test_bad_input_is_one_line(
     "settings", [[], {"target": 5}, {"target": "inproc:memory", "seed": "x"}, {"contract": "?"}]
 )
 def test_a_finding_file_that_is_not_one(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], settings: object
+    findings_dir: Path, capsys: pytest.CaptureFixture[str], settings: object
 ) -> None:
-    (tmp_path / "001-x.json").write_text("[1, 2]")
-    assert fuzz("replay", str(tmp_path)) == 2
+    (findings_dir / "001-x.json").write_text("[1, 2]")
+    assert fuzz("replay", str(findings_dir)) == 2
     assert "001-x.json" in capsys.readouterr().err
     broken: dict[str, object] = {"format": "fw1394-fuzz-finding/1", "oracle": "reply"}
     broken["signature"] = "s"
     broken |= {"target": "inproc:memory", "settings": settings, "expected": "", "observed": ""}
     broken |= {"case": 1, "label": "", "reproduced": None, "shrunk": False, "stream": []}
-    (tmp_path / "001-x.json").write_text(json.dumps(broken))
-    assert fuzz("replay", str(tmp_path)) == 2
+    (findings_dir / "001-x.json").write_text(json.dumps(broken))
+    assert fuzz("replay", str(findings_dir)) == 2
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
 
 
-def test_a_new_run_replaces_the_old_findings(tmp_path: Path) -> None:
-    (tmp_path / "007-old-finding.json").write_text("{}")
-    (tmp_path / "notes.txt").write_text("mine")
-    assert fuzz("run", "inproc:memory", "--max-cases", "50", "--findings", str(tmp_path)) == 0
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt", "report.json"]
+def test_a_forced_run_replaces_the_old_findings(findings_dir: Path) -> None:
+    (findings_dir / "007-old-finding.json").write_text("{}")
+    (findings_dir / "notes.txt").write_text("mine")
+    run = ("run", "inproc:memory", "--max-cases", "50", "--findings", str(findings_dir))
+    assert fuzz(*run, "--force") == 0
+    assert sorted(p.name for p in findings_dir.iterdir()) == ["notes.txt", "report.json"]

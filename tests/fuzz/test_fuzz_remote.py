@@ -60,6 +60,7 @@ def keys(settings: Settings) -> set[tuple[str, str]]:
     return {(f.oracle, f.signature) for f in run(settings).findings}
 
 
+@pytest.mark.process
 def test_tunnel_node_with_a_planted_defect() -> None:
     with process(*serve("memory", "--defect", "answers-other-node")) as (_, line):
         settings = Settings(f"udp:{address(line)}", model="memory", max_cases=400, shrink_budget=5)
@@ -67,6 +68,7 @@ def test_tunnel_node_with_a_planted_defect() -> None:
     assert any(o == "silence" and s.startswith("other-node") for o, s in found)
 
 
+@pytest.mark.process
 def test_tunnel_node_without_defects_meets_its_contract() -> None:
     # Plain memory: a board with a clock (the QLA's 30 ms power-up watchdog) lets
     # a loaded machine's stalls show up as state differences from the model.
@@ -76,6 +78,7 @@ def test_tunnel_node_without_defects_meets_its_contract() -> None:
     assert report.checks["liveness"] >= 400 and report.checks["state"] > 50
 
 
+@pytest.mark.process
 def test_eth1394_node_answering_damaged_reads() -> None:
     with process(*serve("memory", "--eth1394", "--defect", "bad-crc-read-answered")) as (_, line):
         settings = Settings(
@@ -85,6 +88,7 @@ def test_eth1394_node_answering_damaged_reads() -> None:
     assert any(o == "silence" and ":read:" in s for o, s in found)
 
 
+@pytest.mark.process
 def test_a_crashing_node_process_ends_the_run() -> None:
     with process(*serve("memory", "--defect", "crash-on-empty-block-write")) as (child, line):
         settings = Settings(
@@ -158,6 +162,7 @@ INDEPENDENT_NODE = textwrap.dedent(
 )
 
 
+@pytest.mark.process
 def test_an_independent_node_is_fuzzed_like_any_other(tmp_path: Path) -> None:
     script = tmp_path / "node.py"
     script.write_text(INDEPENDENT_NODE)
@@ -187,6 +192,7 @@ def bus_node(name: str, *extra: str) -> subprocess.Popen[bytes]:
 
 
 @pytest.mark.parametrize("defect", [None, "answers-other-node"])
+@pytest.mark.process
 def test_a_node_on_the_virtual_bus(defect: str | None) -> None:
     name = f"fuzz{os.getpid()}{defect or ''}"
     node = bus_node(name, *(("--defect", defect) if defect else ()))
@@ -203,6 +209,7 @@ def test_a_node_on_the_virtual_bus(defect: str | None) -> None:
         assert any(f.signature.startswith("other-node:") for f in report.findings)
 
 
+@pytest.mark.process
 def test_a_node_refuses_an_unknown_defect(capfd: pytest.CaptureFixture[str]) -> None:
     node = bus_node("fuzz-unknown", "--defect", "nonsense")
     assert node.wait(30) == 2

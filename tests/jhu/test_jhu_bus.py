@@ -53,6 +53,8 @@ def check_loop(endpoint: str, boards: int, namespace: str | None = None) -> str:
     return str(found["mode"])
 
 
+@pytest.mark.process
+@pytest.mark.slow
 def test_bridge_hub_on_the_virtual_bus() -> None:
     name = bus_name("jhu")
     fast = ("--heartbeat", "0.05", "--lease", "0.5")
@@ -65,6 +67,7 @@ def test_bridge_hub_on_the_virtual_bus() -> None:
         fw1394("bus", "down", "--name", name)
 
 
+@pytest.mark.process
 def test_eth1394_needs_a_qla1_board() -> None:
     done = fw1394("bus", "up", "--name", bus_name("jhu"), "--nodes", "1", "--eth1394")
     assert done.returncode != 0 and "qla1" in done.stderr
@@ -84,6 +87,9 @@ def namespace() -> Iterator[str]:
         subprocess.run(["ip", "netns", "del", name], capture_output=True, timeout=10)
 
 
+@pytest.mark.process
+@pytest.mark.netns
+@pytest.mark.slow
 def test_ethernet_only_boards_on_the_virtual_bus(namespace: str) -> None:
     name = bus_name("jhu9")
     up = fw1394("bus", "up", "--name", name, "--board", "qla1", "--nodes", "2",

@@ -133,6 +133,9 @@ def fw1394(namespace: str, *args: str) -> list[str]:
 
 @needs_netns
 @pytest.mark.parametrize("boards", [1, 4])
+@pytest.mark.process
+@pytest.mark.netns
+@pytest.mark.slow
 def test_ethernet_only_mode_in_a_namespace(namespace: str, boards: int) -> None:
     server = subprocess.Popen(
         fw1394(

@@ -17,6 +17,7 @@ from fw1394.packets import (
     AsyncPacket,
     PacketError,
     PhyPacket,
+    QuadletReadRequest,
     decode,
     encode,
     to_json,
@@ -105,6 +106,7 @@ def test_fast_path_equals_construct_path(packet: AsyncPacket) -> None:
     values = dict(zip(FIELD_NAMES[int(packet.tcode)], decode_header(wire), strict=True))
     assert values.pop("tcode") == packet.tcode
     decoded = decode(wire)
+    assert isinstance(decoded, AsyncPacket)
     expected = {**decoded.header_fields(), "header_crc": decoded.header_crc}
     del expected["tcode"]
     assert values == expected
@@ -112,6 +114,7 @@ def test_fast_path_equals_construct_path(packet: AsyncPacket) -> None:
 
 def test_dataclass_values_are_immutable() -> None:
     packet = decode(bytes.fromhex("ffc0f140ffc1fffff00009845bdd119c"))
+    assert isinstance(packet, QuadletReadRequest)
     try:
         packet.tlabel = 3  # type: ignore[misc]
     except dataclasses.FrozenInstanceError:

@@ -9,9 +9,11 @@ from typing import Any
 import pytest
 
 from fw1394.packets import (
+    AsyncPacket,
     ExtendedSelfIdPacket,
     PacketError,
     PhyConfigPacket,
+    PhyPacket,
     PortStatus,
     SelfIdPacket,
     decode,
@@ -19,6 +21,18 @@ from fw1394.packets import (
     self_id_port_status,
 )
 from fw1394.packets.asynchronous import decode_async
+
+
+def decode_async_wire(wire: bytes) -> AsyncPacket:
+    packet = decode(wire)
+    assert isinstance(packet, AsyncPacket)
+    return packet
+
+
+def decode_phy_quadlet(word: bytes) -> PhyPacket:
+    packet = decode(word, crc=False, kind="phy")
+    assert isinstance(packet, PhyPacket)
+    return packet
 
 VECTORS = Path(__file__).parents[1] / "vectors"
 SERDES = json.loads((VECTORS / "linux_packet_serdes_test.json").read_text())["vectors"]
@@ -76,7 +90,7 @@ def test_kernel_headers_encode_to_the_source_bytes(vector: dict[str, Any]) -> No
 )
 def test_whole_wire_packets_round_trip(vector: dict[str, Any]) -> None:
     wire = raw(vector["wire_packet_hex_computed"])
-    packet = decode(wire)
+    packet = decode_async_wire(wire)
     assert packet.header_crc_ok
     assert encode(packet) == wire
 
@@ -100,7 +114,7 @@ def test_phy_packets(vector: dict[str, Any]) -> None:
         else None
     )
     fields = vector["fields"]
-    packets = [decode(words[i : i + 4], crc=False, kind="phy") for i in range(0, len(words), 4)]
+    packets = [decode_phy_quadlet(words[i : i + 4]) for i in range(0, len(words), 4)]
     first = packets[0]
     if fields.get("packet_identifier_name") == "phy_config":
         assert isinstance(first, PhyConfigPacket)
@@ -131,7 +145,9 @@ def test_phy_packets(vector: dict[str, Any]) -> None:
         for offset in range(0, len(wire), 8):
             pair = wire[offset : offset + 8]
             assert encode(decode(pair)) == pair
-            assert decode(pair).inverse_ok
+            decoded = decode(pair)
+            assert isinstance(decoded, PhyPacket)
+            assert decoded.inverse_ok
 
 
 def test_ohci_self_id_buffer_packets() -> None:
@@ -150,7 +166,7 @@ def test_self_id_sequence_port_status() -> None:
     # The source leaves the identifier bits zero (its helper reads port fields only);
     # set them so the quadlets are self-ID packets, leaving every port field as given.
     quadlets = [int(word, 16) | 0x80000000 for word in vector["bytes_hex"].split()]
-    packets = [decode(q.to_bytes(4, "big"), crc=False, kind="phy") for q in quadlets]
+    packets = [decode_phy_quadlet(q.to_bytes(4, "big")) for q in quadlets]
     expected = [PortStatus[name].value for name in vector["fields"]["port_status"]]
     assert len(expected) == 28  # port 28 is out of range and reads as none
     assert self_id_port_status(packets)[:27] == expected[:27]
@@ -160,7 +176,7 @@ def test_self_id_sequence_port_status() -> None:
 @pytest.mark.parametrize("vector", CAPTURED["vectors"], ids=lambda v: v["description"])
 def test_captured_host_requests(vector: dict[str, Any]) -> None:
     wire = raw(vector["packet_hex"])
-    packet = decode(wire)
+    packet = decode_async_wire(wire)
     for name, value in vector["fields"].items():
         if name == "tcode":
             assert int(packet.tcode) == value

@@ -14,12 +14,10 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterator
 
 import pytest
-import test_bus_membership
 from bus_support import bus_name, node_command, stop, wait_until_gone
-from test_bus_membership import FakeBus, settled
+from fake_bus import FakeBus, settled
 
 from fw1394.engine import ReadCompleted, TransactionEvent, TransactionFailed
 from fw1394.transport.bus_port import BusPort
@@ -86,36 +84,30 @@ def read_every_node_at_once(port: BusPort, count: int) -> dict[int, str]:
     return {phy: outcome(port.wait(tid)) for phy, tid in tids.items()}
 
 
-@pytest.fixture
-def processes() -> Iterator[list[subprocess.Popen[bytes]]]:
-    started: list[subprocess.Popen[bytes]] = []
-    yield started
-    for process in started:
-        stop(process)
-
-
+@pytest.mark.process
 def test_nodes_answer_the_host_the_moment_it_is_ready(
-    processes: list[subprocess.Popen[bytes]],
+    node_processes: list[subprocess.Popen[bytes]],
 ) -> None:
     name = bus_name("ready")
     with port_on(name) as port:
         # The host is first: each node joins its bus and takes a new physical ID in
         # the reset after which the host reads it (rank 0 moves rank 1 up as well).
-        processes.append(start_slow_node(name, 1))
+        node_processes.append(start_slow_node(name, 1))
         assert read_every_node_at_once(port, 1) == {0: "ok"}
-        processes.append(start_slow_node(name, 0))
+        node_processes.append(start_slow_node(name, 0))
         assert read_every_node_at_once(port, 2) == {0: "ok", 1: "ok"}
         assert [m.board_id for _, m in port.nodes()] == [0, 1]
-    for process in processes:
+    for process in node_processes:
         stop(process)
     assert wait_until_gone(name) == []
 
 
+@pytest.mark.process
 def test_a_host_joins_beside_an_active_host_and_reads_at_once(
-    processes: list[subprocess.Popen[bytes]],
+    node_processes: list[subprocess.Popen[bytes]],
 ) -> None:
     name = bus_name("beside")
-    processes += [start_node(name, rank) for rank in range(2)]
+    node_processes += [start_node(name, rank) for rank in range(2)]
     with port_on(name) as first:
         read_every_node_at_once(first, 2)
         done = threading.Event()
@@ -138,9 +130,12 @@ def test_a_host_joins_beside_an_active_host_and_reads_at_once(
         assert set(outcomes) <= {"ok", "bus_reset"} and "ok" in outcomes, outcomes
 
 
-def test_a_host_joins_beside_an_idle_host(processes: list[subprocess.Popen[bytes]]) -> None:
+@pytest.mark.process
+def test_a_host_joins_beside_an_idle_host(
+    node_processes: list[subprocess.Popen[bytes]],
+) -> None:
     name = bus_name("idle")
-    processes.append(start_node(name, 0))
+    node_processes.append(start_node(name, 0))
     with port_on(name) as idle:
         assert read_every_node_at_once(idle, 1) == {0: "ok"}
         # ``idle`` runs no timers from now on: it sends neither heartbeats nor the
@@ -153,14 +148,17 @@ def test_a_host_joins_beside_an_idle_host(processes: list[subprocess.Popen[bytes
         assert time.monotonic() - started < 3 * TIMING.lease
 
 
-def test_a_host_left_idle_reads_again_at_once(processes: list[subprocess.Popen[bytes]]) -> None:
+@pytest.mark.process
+def test_a_host_left_idle_reads_again_at_once(
+    node_processes: list[subprocess.Popen[bytes]],
+) -> None:
     """Idle for a while, within the lease, around its end, well past it: no failure.
 
     A host runs its timers only inside its calls; the first transaction after a
     pause must not meet a bus reset that the pause caused.
     """
     name = bus_name("pause")
-    processes.append(start_node(name, 0))
+    node_processes.append(start_node(name, 0))
     with port_on(name) as port:
         assert read_every_node_at_once(port, 1) == {0: "ok"}
         pauses = (3 * TIMING.heartbeat, TIMING.lease - TIMING.heartbeat / 2, TIMING.lease + 0.5)
@@ -170,12 +168,9 @@ def test_a_host_left_idle_reads_again_at_once(processes: list[subprocess.Popen[b
             assert [m.host for _, m in port.nodes()] == [False]
 
 
-def test_a_reset_does_not_renew_the_lease_of_a_silent_member(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
+def test_a_reset_does_not_renew_the_lease_of_a_silent_member() -> None:
     timing = Timing(heartbeat=0.1, lease=1.5, join_retry=0.05, settle=0.002)
-    monkeypatch.setattr(test_bus_membership, "TIMING", timing)
-    bus = FakeBus()
+    bus = FakeBus(timing)
     nodes = [bus.add(rank) for rank in range(3)]
     bus.run(3.0)
     settled(bus)

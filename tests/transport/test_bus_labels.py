@@ -88,3 +88,22 @@ def test_sixty_outstanding_reads_on_a_faulty_bus_never_return_wrong_data(
     assert outcomes["hang"] == 0, outcomes
     assert set(outcomes) <= {"ok", "no_ack", "response_timeout", "bus_reset"}, outcomes
     assert outcomes["ok"] > READS * 0.8, outcomes
+
+
+def test_reads_beyond_64_wait_for_labels_and_all_complete(tmp_path: Path) -> None:
+    """The 65th read on waits inside the engine; the host sends it when a label frees."""
+    config = BusConfig(bus_name("wait"))
+    with LaunchedBus(config, 1, root=tmp_path, node_arguments=("--heartbeat", "0.1")) as bus:
+        bus.wait_members()
+        with BusHost(config, timing=TIMING, ack_timeout=0.5, split_timeout=0.5) as host:
+            ((node, _),) = host.nodes()
+            data = b"".join(q.to_bytes(4, "big") for q in range(100))
+            assert isinstance(host.wait(host.start_write_block(node, 0, data)), WriteCompleted)
+            tids = [host.start_read_quadlet(node, 4 * q) for q in range(100)]
+            assert host.requester.queued == 36
+            # Waiting on the last first: nothing else makes the host send the waiting ones.
+            ended = {tid: host.wait(tid) for tid in reversed(tids)}
+    assert wait_until_gone(config.name) == []
+    assert [ended[tid] for tid in tids] == [
+        ReadCompleted(tid, q.to_bytes(4, "big")) for q, tid in enumerate(tids)
+    ]

@@ -17,10 +17,15 @@ from collections.abc import Iterator
 import pytest
 from bus_support import bus_name, stop, wait_until_gone
 
-pytestmark = pytest.mark.skipif(
-    os.geteuid() != 0 or shutil.which("ip") is None,
-    reason="needs root and iproute2 (ip) to create network namespaces",
-)
+pytestmark = [
+    pytest.mark.skipif(
+        os.geteuid() != 0 or shutil.which("ip") is None,
+        reason="needs root and iproute2 (ip) to create network namespaces",
+    ),
+    pytest.mark.netns,
+    pytest.mark.process,
+    pytest.mark.slow,
+]
 SUBNET = "10.213.77"
 FAST = ("--heartbeat", "0.05", "--lease", "0.5")
 

@@ -6,11 +6,11 @@ import json
 import os
 import signal
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from bus_support import PREFIX, bus_name, start_node, stop, wait_until_gone
+from bus_support import PREFIX, LaunchBus, bus_name, start_node, stop, wait_until_gone
+from polling import wait_until
 
 from fw1394.capture.formats.bus_tap import BusTap
 from fw1394.capture.formats.record import RecordType
@@ -30,12 +30,8 @@ FAST_ARGS = ("--heartbeat", "0.1", "--lease", "2.0")
 
 
 @pytest.fixture
-def bus3(tmp_path: Path) -> Iterator[LaunchedBus]:
-    config = BusConfig(bus_name("three"))
-    with LaunchedBus(config, 3, root=tmp_path, node_arguments=FAST_ARGS) as bus:
-        bus.wait_members()
-        yield bus
-    assert wait_until_gone(config.name) == []
+def bus3(launch_bus: LaunchBus) -> LaunchedBus:
+    return launch_bus(3, tag="three", node_arguments=FAST_ARGS)
 
 
 def host(bus: LaunchedBus, ack_timeout: float = 1.0) -> BusPort:
@@ -46,6 +42,7 @@ def port_on(config: BusConfig, ack_timeout: float = 1.0) -> BusPort:
     return BusPort(config, timing=FAST_TIMING, ack_timeout=ack_timeout, split_timeout=1.0)
 
 
+@pytest.mark.process
 def test_read_and_write_every_node(bus3: LaunchedBus) -> None:
     with host(bus3) as port:
         nodes = port.nodes()
@@ -60,8 +57,10 @@ def test_read_and_write_every_node(bus3: LaunchedBus) -> None:
             assert port.read_quadlet(phy, 0x10) == 0xC0DE0000 + phy
             assert port.read_block(phy, 0x100, 2048) == bytes(range(256)) * 8
         port.write_quadlet(63, 0x20, 0xB0AD)  # broadcast: nobody acks, everyone stores
-        time.sleep(0.05)
-        assert [port.read_quadlet(phy, 0x20) for phy, _ in nodes] == [0xB0AD] * 3
+        wait_until(
+            lambda: [port.read_quadlet(phy, 0x20) for phy, _ in nodes] == [0xB0AD] * 3,
+            timeout=5,
+        )
         with pytest.raises(TransactionError, match="address_error"):
             port.read_quadlet(0, 0x1_0000_0000)
         assert port.lock(1, 0x10, 2, (0xC0DE0001).to_bytes(4, "big"), bytes(4)) == bytes.fromhex(
@@ -69,6 +68,7 @@ def test_read_and_write_every_node(bus3: LaunchedBus) -> None:
         )
 
 
+@pytest.mark.process
 def test_tap_sees_resets_self_ids_packets_and_acks(bus3: LaunchedBus) -> None:
     with BusTap(bus3.config.name, ack_wait=0.5) as tap, host(bus3) as port:
         port.nodes()
@@ -97,6 +97,7 @@ def test_tap_sees_resets_self_ids_packets_and_acks(bus3: LaunchedBus) -> None:
     assert stamps == sorted(stamps)
 
 
+@pytest.mark.process
 def test_a_killed_node_resets_the_bus_and_can_come_back(bus3: LaunchedBus) -> None:
     victim = bus3.records()[1].pid
     with host(bus3, ack_timeout=10.0) as port:
@@ -124,32 +125,33 @@ def test_a_killed_node_resets_the_bus_and_can_come_back(bus3: LaunchedBus) -> No
             stop(comeback)
 
 
-def test_five_percent_loss_never_hangs_a_transaction(tmp_path: Path) -> None:
-    config = BusConfig(bus_name("lossy"))
+@pytest.mark.process
+@pytest.mark.slow
+def test_five_percent_loss_never_hangs_a_transaction(launch_bus: LaunchBus) -> None:
     lossy = (*FAST_ARGS, "--loss", "0.05", "--duplicate", "0.02", "--delay", "0.05")
-    with LaunchedBus(config, 2, root=tmp_path, node_arguments=lossy) as bus:
-        bus.wait_members()
-        faults = FaultConfig(loss=0.05, seed=1)
-        with BusPort(
-            config, timing=FAST_TIMING, faults=faults, ack_timeout=0.2, split_timeout=0.2
-        ) as port:
-            port.nodes()
-            outcomes: dict[str, int] = {}
-            started = time.monotonic()
-            for i in range(300):
-                tid = port.start_read_quadlet(i % 2, 0)
-                event = port.wait(tid)
-                name = "ok" if isinstance(event, ReadCompleted) else "?"
-                if isinstance(event, TransactionFailed):
-                    name = str(event.reason)
-                outcomes[name] = outcomes.get(name, 0) + 1
-            elapsed = time.monotonic() - started
+    bus = launch_bus(2, tag="lossy", node_arguments=lossy)
+    faults = FaultConfig(loss=0.05, seed=1)
+    with BusPort(
+        bus.config, timing=FAST_TIMING, faults=faults, ack_timeout=0.2, split_timeout=0.2
+    ) as port:
+        port.nodes()
+        outcomes: dict[str, int] = {}
+        started = time.monotonic()
+        for i in range(300):
+            tid = port.start_read_quadlet(i % 2, 0)
+            event = port.wait(tid)
+            name = "ok" if isinstance(event, ReadCompleted) else "?"
+            if isinstance(event, TransactionFailed):
+                name = str(event.reason)
+            outcomes[name] = outcomes.get(name, 0) + 1
+        elapsed = time.monotonic() - started
     assert outcomes.get("ok", 0) > 250, outcomes
     assert sum(outcomes.values()) == 300
     assert elapsed < 30, (elapsed, outcomes)
     assert set(outcomes) <= {"ok", "no_ack", "response_timeout", "bus_reset"}, outcomes
 
 
+@pytest.mark.process
 def test_two_buses_side_by_side(tmp_path: Path) -> None:
     first, second = BusConfig(bus_name("left")), BusConfig(bus_name("right"))
     with (
@@ -170,6 +172,7 @@ def test_two_buses_side_by_side(tmp_path: Path) -> None:
             assert right.read_quadlet(0, 0) == 0
 
 
+@pytest.mark.process
 def test_cli_bus_lifecycle(capsys: pytest.CaptureFixture[str]) -> None:
     name = bus_name("cli")
     try:
@@ -222,10 +225,12 @@ def test_cli_rejects_bad_input_without_tracebacks(capsys: pytest.CaptureFixture[
     assert "outside 1..65448" in err and "at most 65456" in err
 
 
+@pytest.mark.process
 def test_no_process_is_left_behind() -> None:
     assert wait_until_gone(PREFIX) == []
 
 
+@pytest.mark.process
 def test_a_response_too_large_for_a_datagram_is_dropped_not_fatal(tmp_path: Path) -> None:
     """A 65,535-byte block read: the board answers, no datagram can carry it.
 
@@ -258,6 +263,7 @@ def test_a_response_too_large_for_a_datagram_is_dropped_not_fatal(tmp_path: Path
                 port.start_read_block(0, 0, MAX_BLOCK_READ + 1)
             assert len(port.read_block(0, 0, MAX_BLOCK_READ)) == MAX_BLOCK_READ
             # Past the host's guard, as a fuzzer or foreign host would send it.
+            assert port.phy_id is not None
             me = LOCAL_BUS << 6 | port.phy_id
             request = BlockReadRequest(
                 destination_id=LOCAL_BUS << 6, tlabel=5, source_id=me, offset=0, data_length=65535

@@ -52,6 +52,7 @@ def watch(
     )
 
 
+@pytest.mark.process
 def test_snapshot_as_text(bus: LaunchedBus) -> None:
     result = watch("0", "--once", "--name", bus.config.name)
     assert result.returncode == 0, result.stderr
@@ -67,6 +68,7 @@ def test_snapshot_as_text(bus: LaunchedBus) -> None:
         assert cells[11] == "0x8000" and cells[-2:] == ["spd", "2.01"]
 
 
+@pytest.mark.process
 def test_snapshot_as_json_after_another_host_drove_the_board(bus: LaunchedBus) -> None:
     with BusPort(bus.config) as port:
         port.write_quadlet(0, REG_STATUS, 0x4040)  # enable channel 7 (mask and value)
@@ -91,6 +93,7 @@ def test_snapshot_as_json_after_another_host_drove_the_board(bus: LaunchedBus) -
     assert not any(c["enabled"] for c in channels[:6])
 
 
+@pytest.mark.process
 def test_errors_are_one_line(bus: LaunchedBus) -> None:
     missing = watch("5", "--once", "--name", bus.config.name)
     assert missing.returncode == 2
@@ -106,6 +109,7 @@ def test_errors_are_one_line(bus: LaunchedBus) -> None:
     assert watch("0", "--json").stderr.startswith("fw1394: error: --json goes with --once")
 
 
+@pytest.mark.process
 def test_no_such_bus() -> None:
     result = watch(
         "0", "--once", "--name", bus_name("absent"), "--lease", "0.5", "--heartbeat", "0.1"
@@ -171,6 +175,7 @@ def settle(view: Terminal, observer: BusPort, seconds: float) -> None:
         observer.poll(0.02)
 
 
+@pytest.mark.process
 def test_live_view_enables_and_switches_off_on_quit(bus: LaunchedBus) -> None:
     view = Terminal("0", "--name", bus.config.name)
     try:

@@ -252,6 +252,9 @@ def test_board_kind_from_a_node_command_line() -> None:
     assert kind_from_argv([*python, "--board=qla1"]) == "qla1"
     assert kind_from_argv([*python, "--board-id", "2"]) == "memory"  # node run's default
     assert kind_from_argv(["/usr/bin/python3", "server.py"]) is None
+    entry = ["/usr/bin/python3", "-m", "fw1394.node", "--name", "b"]
+    assert kind_from_argv([*entry, "--board", "qla1"]) == "qla1"
+    assert kind_from_argv(entry) == "memory"
 
 
 def test_channel_count_of_board_kinds() -> None:

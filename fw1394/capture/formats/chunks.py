@@ -76,8 +76,15 @@ class ChunkSource:
 
 
 def read_into(stream: BinaryIO, target: memoryview) -> int:
-    """Fill ``target`` from ``stream`` (fewer bytes only at the end of the stream)."""
+    """Fill ``target`` from ``stream`` (fewer bytes only at the end of the stream).
+
+    A pipe is read one read at a time (``readinto1``), so a live capture is
+    dissected as it arrives rather than after megabytes have accumulated.
+    """
     readinto = getattr(stream, "readinto", None)
+    seekable = getattr(stream, "seekable", None)
+    if seekable is not None and not seekable():
+        readinto = getattr(stream, "readinto1", readinto)
     if readinto is not None:
         got = readinto(target)
         return int(got or 0)

@@ -87,7 +87,8 @@ class _Reader:
             body = self._stream.read(length)
             self._offset += 4 + len(body)
             if len(body) < length:
-                issues.append(Issue(position, f"record cut short ({len(body)} of {length} bytes)"))
+                message = f"record cut short ({len(body)} of {length} bytes)"
+                issues.append(Issue(position, message, cut_short=True))
                 self._done = True
                 break
             record = self._record(body, position, issues)

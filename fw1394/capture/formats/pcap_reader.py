@@ -69,7 +69,8 @@ class PcapReader:
                 positions.append(base + pos)
                 pos = end
             if source.eof and pos < size:
-                issues.append(Issue(base + pos, f"truncated record ({size - pos} bytes)"))
+                message = f"truncated record ({size - pos} bytes)"
+                issues.append(Issue(base + pos, message, cut_short=True))
                 pos = size
             source.give_back(buf, pos, size)
             count = len(starts)

@@ -65,7 +65,9 @@ class PcapngReader:
                 # Whatever is left can never become a block.
                 issues.append(
                     Issue(
-                        source.file_offset + consumed, f"truncated block ({size - consumed} bytes)"
+                        source.file_offset + consumed,
+                        f"truncated block ({size - consumed} bytes)",
+                        cut_short=True,
                     )
                 )
                 consumed = size

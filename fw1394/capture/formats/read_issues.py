@@ -12,6 +12,8 @@ class Issue:
     position: int
     message: str
     unit: str = "byte"
+    #: The input ends inside this record: the file was cut short (tshark exits 2 for it).
+    cut_short: bool = False
 
     def __str__(self) -> str:
         return f"{self.unit} {self.position}: {self.message}"

@@ -18,7 +18,7 @@ import io
 import struct
 from collections.abc import Callable, Iterator
 from functools import partial
-from typing import BinaryIO
+from typing import Any, BinaryIO
 
 import numpy as np
 
@@ -40,12 +40,23 @@ class SourceError(ValueError):
     """The input cannot be read at all (one line for the user)."""
 
 
+#: Bytes looked at to tell a format.
+HEAD_SIZE = 65536
+#: The name standing for standard input, as in tshark.
+STDIN = "-"
+
+
 def detect(path: str) -> str:
     try:
         with open(path, "rb") as stream:
-            head = stream.read(65536)
+            head = stream.read(HEAD_SIZE)
     except OSError as error:
         raise SourceError(f"{path}: {error.strerror or error}") from None
+    return detect_head(head, path)
+
+
+def detect_head(head: bytes, path: str) -> str:
+    """The format of an input whose first bytes are ``head``."""
     if not head:
         raise SourceError(f"{path}: the file is empty")
     kind = containers.sniff(head)
@@ -92,17 +103,84 @@ def jobs(path: str, fmt: str, ports: tuple[int, ...] = (UDP_PORT,)) -> Iterator[
     except OSError as error:
         raise SourceError(f"{path}: {error.strerror or error}") from None
     with stream:
-        if fmt in ("fw1394", "udp"):
-            yield from _pcap_jobs(stream, ports)
-        elif fmt == "nosy":
-            for batch in nosy.read_batches(stream):
-                yield partial(_ready, batch)
-        elif fmt == "kernel":
-            text = io.TextIOWrapper(stream, encoding="utf-8", errors="replace", newline=None)
-            for batch in kernel.read_batches(text):
-                yield partial(_ready, batch)
-        else:
-            raise SourceError(f"unknown format {fmt!r}")
+        yield from stream_jobs(stream, fmt, ports)
+
+
+def stream_jobs(stream: BinaryIO, fmt: str, ports: tuple[int, ...] = (UDP_PORT,)) -> Iterator[Job]:
+    """Batches of an open stream read as ``fmt`` (standard input, a pipe)."""
+    if fmt in ("fw1394", "udp"):
+        yield from _pcap_jobs(stream, ports)
+    elif fmt == "nosy":
+        for batch in nosy.read_batches(stream):
+            yield partial(_ready, batch)
+    elif fmt == "kernel":
+        text = io.TextIOWrapper(stream, encoding="utf-8", errors="replace", newline=None)
+        for batch in kernel.read_batches(text):
+            yield partial(_ready, batch)
+    else:
+        raise SourceError(f"unknown format {fmt!r}")
+
+
+class _Prefixed(io.RawIOBase):
+    """Bytes already read (to tell the format), then the rest of the stream."""
+
+    def __init__(self, head: bytes, rest: BinaryIO) -> None:
+        self._head = memoryview(head)
+        self._rest = rest
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, target: Any) -> int:
+        if self._head:
+            size = min(len(target), len(self._head))
+            target[:size] = self._head[:size]
+            self._head = self._head[size:]
+            return size
+        read1 = getattr(self._rest, "read1", self._rest.read)
+        data = read1(len(target))
+        target[: len(data)] = data
+        return len(data)
+
+
+def open_stream(stream: BinaryIO) -> tuple[BinaryIO, bytes]:
+    """``stream`` ready to read from its start, and its first bytes to tell the format by.
+
+    Reads no more than the format needs, so a live pipe (``capture -w - | dissect -``)
+    is recognised as soon as its file header has arrived.
+    """
+    head = b""
+    read1 = getattr(stream, "read1", stream.read)
+    while len(head) < HEAD_SIZE:
+        data = read1(HEAD_SIZE - len(head))
+        if not data:
+            break
+        head += data
+        kind = containers.sniff(head)
+        if kind is not None and _first_linktype(head, kind) is not None:
+            break
+    return io.BufferedReader(_Prefixed(head, stream)), head
+
+
+class PortTally(tuple[int, ...]):
+    """The UDP ports taken as Eth1394, counting the ports of the datagrams passed over.
+
+    A datagram is asked about by its source and destination port; those whose
+    ports are both refused are the traffic to suggest ``--port`` for.
+    """
+
+    def __init__(self, ports: tuple[int, ...]) -> None:
+        self.refused: dict[int, int] = {}
+
+    def __contains__(self, port: object) -> bool:
+        if super().__contains__(port):
+            return True
+        if isinstance(port, int):
+            self.refused[port] = self.refused.get(port, 0) + 1
+        return False
+
+    def busiest(self, most: int = 3) -> list[int]:
+        return sorted(self.refused, key=lambda p: -self.refused[p])[:most]
 
 
 def _ready(batch: Batch) -> Batch:

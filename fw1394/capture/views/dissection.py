@@ -13,7 +13,7 @@ import json
 import queue
 import threading
 from collections import deque
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import TextIO
@@ -28,13 +28,17 @@ from fw1394.capture.analysis.stats import Stats
 from fw1394.capture.analysis.transactions import Pairer, Transactions
 from fw1394.capture.formats import sources
 from fw1394.capture.formats.record import RecordType
+from fw1394.capture.views.filter_columns import packet_columns, transaction_columns
 from fw1394.capture.views.packet_view import PACKET_CSV, PacketFormatter
+from fw1394.capture.views.time_format import TimeColumn, previous_times, splice
 from fw1394.capture.views.transaction_view import TRANSACTION_CSV, TransactionFormatter
 from fw1394.packets.nodeid import PHY_ID_MASK
 
 VIEWS = ("packets", "transactions", "stats", "rom")
 #: Malformed-record messages printed before the rest are only counted.
 MAX_ISSUES_SHOWN = 50
+#: A display filter: which rows of the named columns to keep.
+RowFilter = Callable[[Mapping[str, tuple[np.ndarray, ...]], int], np.ndarray]
 
 
 @dataclass
@@ -49,6 +53,10 @@ class Options:
     verify_crc: bool | None = None
     workers: int = 2
     want_plots: bool = False
+    display_filter: RowFilter | None = None
+    #: Read only this many records (as ``tshark -r -c``), whatever the view.
+    count: int | None = None
+    time_format: str = "r"
 
 
 @dataclass
@@ -58,6 +66,8 @@ class Outcome:
     records: int = 0
     issues: int = 0
     issue_lines: list[str] = field(default_factory=list)
+    shown: int = 0  # rows printed by the packet or transaction view
+    cut_short: bool = False  # the input ended in the middle of a record
 
 
 def decoded_batches(
@@ -119,6 +129,8 @@ class Dissection:
         self.ordinal = 0
         self._csv = csv.writer(out) if options.output == "csv" else None
         self._generation: int | None = None
+        self.time_column = TimeColumn(options.time_format)
+        self._last_ts: int | None = None  # the last record of the previous batch
         view = options.view
         self.pairs = view in ("transactions", "stats", "rom") or options.want_plots
         if self._csv is not None and view == "packets":
@@ -130,15 +142,32 @@ class Dissection:
         options = self.options
         for batch, decoded in decoded_batches(jobs, options.verify_crc, options.workers):
             self.feed(batch, decoded)
+            if self.full:
+                break
         if self.pairs:
             self._transactions(self.pairer.finish(), None)
         self.finish()
         return self.outcome
 
+    @property
+    def full(self) -> bool:
+        """``count`` records read: nothing more is."""
+        return self.options.count is not None and self.outcome.records >= self.options.count
+
     # -- per batch --------------------------------------------------------------------------
     def feed(self, batch: Batch, decoded: Decoded) -> None:
         outcome = self.outcome
+        count = self.options.count
+        if count is not None:
+            room = count - outcome.records
+            if len(batch) > room:
+                # Problems past the last record read are not this reading's (tshark: same).
+                limit = int(batch.position[room])
+                first = np.arange(len(batch)) < room
+                batch, decoded = batch.select(first), decoded.select(first)
+                batch.issues = [issue for issue in batch.issues if issue.position < limit]
         for issue in batch.issues:
+            outcome.cut_short |= bool(getattr(issue, "cut_short", False))
             outcome.issues += 1
             if len(outcome.issue_lines) < MAX_ISSUES_SHOWN:
                 outcome.issue_lines.append(str(issue))
@@ -155,6 +184,7 @@ class Dissection:
         if self.pairs:
             self._transactions(self.pairer.feed(batch, decoded), batch)
         self.ordinal += len(batch)
+        self._last_ts = int(batch.ts_ns[-1])
 
     def _packet_filter(self, batch: Batch, decoded: Decoded) -> np.ndarray:
         o = self.options
@@ -177,6 +207,9 @@ class Dissection:
                 | np.isin(destination & PHY_ID_MASK, ids) & (destination >= 0)
                 | np.isin(batch.sender, ids)
             )
+        if o.display_filter is not None and o.view == "packets" and keep.any():
+            columns = packet_columns(batch, decoded, self.origin_ns or 0)
+            keep &= o.display_filter(columns, len(batch))
         return keep
 
     def _transaction_filter(self, tx: Transactions) -> np.ndarray:
@@ -200,13 +233,33 @@ class Dissection:
                 | np.isin(requester & PHY_ID_MASK, ids)
                 | np.isin(responder & PHY_ID_MASK, ids)
             )
+        if o.display_filter is not None and keep.any():
+            columns = transaction_columns(tx, self.origin_ns or 0)
+            keep &= o.display_filter(columns, len(tx))
         return keep
 
     def _packets(self, batch: Batch, decoded: Decoded, keep: np.ndarray) -> None:
         formatter = PacketFormatter(batch, decoded, self.origin_ns or 0)
         write, output = self.out.write, self.options.output
-        for row in np.flatnonzero(keep).tolist():
-            if output == "json":
+        rows = np.flatnonzero(keep)
+        self.outcome.shown += len(rows)
+        retimed = output == "text" and self.options.time_format != "r"
+        if retimed:
+            previous = previous_times(batch.ts_ns, self._last_ts)
+            unknown = batch.flag("time_unknown")
+        for row in rows.tolist():
+            if retimed:
+                line = formatter.line(row)
+                if not unknown[row]:
+                    before = int(previous[row])
+                    stamp = self.time_column.text(
+                        int(batch.ts_ns[row]), self.origin_ns or 0, None if before < 0 else before
+                    )
+                    line = splice(line, int(batch.frame[row]), stamp)
+                write(line + "\n")
+                if self.options.verbose:
+                    write("\n".join(formatter.details(row)) + "\n")
+            elif output == "json":
                 write(json.dumps(formatter.json(row, self.options.verbose)) + "\n")
             elif self._csv is not None:
                 self._csv.writerow(formatter.csv(row))
@@ -256,6 +309,7 @@ class Dissection:
         self._generation = generation
 
     def _transaction_row(self, formatter: TransactionFormatter, row: int) -> None:
+        self.outcome.shown += 1
         if self.options.output == "json":
             self.out.write(json.dumps(formatter.json(row)) + "\n")
             return
@@ -266,7 +320,12 @@ class Dissection:
         if self._generation is not None and generation != self._generation:
             self.out.write(f"{'':>7}  ---- generation {generation} ----\n")
         self._generation = generation
-        self.out.write(formatter.line(row) + "\n")
+        line = formatter.line(row)
+        if self.options.time_format != "r" and formatter.value("time_known", row) != 0:
+            first_ts = formatter.value("first_ts", row)
+            stamp = self.time_column.text(first_ts, self.origin_ns or 0)
+            line = splice(line, formatter.value("first_frame", row), stamp)
+        self.out.write(line + "\n")
 
     # -- end ---------------------------------------------------------------------------------
     def finish(self) -> None:
