@@ -25,6 +25,7 @@ from fw1394.host import Board, MultiBoard, PdGains, PositionLoop
 from fw1394.transport.bus_host import TransactionError
 from fw1394.transport.bus_port import BusPort
 from fw1394.transport.config import BusConfig
+from fw1394.transport.idle import ENVIRONMENT, IdleStrategy
 from fw1394.transport.launch import LaunchedBus
 
 #: The robot of thesis section 1.2: actuation unit (7 axes) and Z-Theta stage (4).
@@ -83,11 +84,14 @@ def run_demo(
     progress: Progress | None = None,
     sample_every: int = 5,
     capture: Path | None = None,
+    idle: IdleStrategy | None = None,
 ) -> DemoResult:
     """Run the demo for ``seconds`` of real time; every started process is stopped.
 
     With ``capture``, a ``fw1394 capture`` process taps the bus into that file
     for the whole run (a separate process, so the servo loop keeps its core).
+    ``idle`` is how the host and the nodes wait for frames
+    (:mod:`fw1394.transport.idle`; default ``FW1394_IDLE``, else adaptive).
     """
     config = BusConfig(name=bus_name or f"demo-{os.getpid()}")
     result = DemoResult(bus_name=config.name)
@@ -95,9 +99,9 @@ def run_demo(
     launched = LaunchedBus(
         config, len(BOARDS), board=",".join(BOARDS), node_arguments=("--adapter",)
     )
-    with launched as bus, _tap(config, capture):
+    with _idle_for_children(idle), launched as bus, _tap(config, capture):
         bus.wait_members()
-        with BusPort(config) as port:
+        with BusPort(config, idle=idle) as port:
             nodes = [phy for phy, member in port.nodes() if not member.host]
             robot = MultiBoard(
                 [Board(port, node, axes) for node, axes in zip(nodes, AXES_PER_BOARD, strict=True)]
@@ -107,6 +111,23 @@ def run_demo(
             robot.set_power_control(robot.power_word(range(robot.num_axes), on=False))
             _retrying_bus_resets(robot.apply_all_outputs)
     return result
+
+
+@contextlib.contextmanager
+def _idle_for_children(idle: IdleStrategy | None) -> Iterator[None]:
+    # The node processes take their strategy from the environment they inherit.
+    if idle is None:
+        yield
+        return
+    before = os.environ.get(ENVIRONMENT)
+    os.environ[ENVIRONMENT] = str(idle)
+    try:
+        yield
+    finally:
+        if before is None:
+            del os.environ[ENVIRONMENT]
+        else:
+            os.environ[ENVIRONMENT] = before
 
 
 @contextlib.contextmanager

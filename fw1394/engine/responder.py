@@ -252,6 +252,16 @@ class Responder:
             pass
 
     # -- serving -----------------------------------------------------------------------
+    def refusal(self, request: AsyncPacket | None, error: SpaceError, *, read: bool) -> Reply:
+        """The reply to ``request`` (served already) when its space raised ``error``.
+
+        ``read``: a read or lock (answered by the read policy), else a write. For a
+        fast path that performed the request itself.
+        """
+        assert isinstance(request, Request)
+        answers = self._read_answers if read else self._write_answers
+        return self._refuse(request, answers, error)
+
     def _refuse(self, request: Request, answers: dict[Outcome, Answer], error: SpaceError) -> Reply:
         answer = answers[_outcome(error, self._policy)]
         if answer.rcode is None:

@@ -21,23 +21,31 @@ from dataclasses import dataclass
 from fw1394.experiments.phase_progress import Progress
 from fw1394.experiments.summary import Summary, summarize
 from fw1394.experiments.timing import TargetError, pin, time_calls
+from fw1394.transport.idle import Waiter, default_idle
 
 REQUEST_BYTES = 40
 BLOCK_BYTES = 2048
 RECEIVE_TIMEOUT_S = 1.0
 
 # The echo answers a request with as many bytes as its first four ask for (0: the
-# request itself), and dies with the bench (PR_SET_PDEATHSIG) however the bench ends.
+# request itself), waits the way bus members do (FW1394_IDLE), and dies with the
+# bench (PR_SET_PDEATHSIG) however the bench ends.
 ECHO = """
 import socket, sys
+from fw1394.transport.idle import Waiter, default_idle
 from fw1394.transport.procs import die_with_parent
 die_with_parent(int(sys.argv[1]))
+peer = ("127.0.0.1", int(sys.argv[2]))
 s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
 s.bind(("127.0.0.1", 0))
+s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVTIMEO, (1).to_bytes(8, "little") + bytes(8))
 print(s.getsockname()[1], flush=True)
+wait = Waiter(s, default_idle(), 1.0).receive
 replies = {}
 while True:
-    data, peer = s.recvfrom(65535)
+    data = wait(65535)
+    if data is None:
+        continue
     if data == b"stop":
         break
     size = int.from_bytes(data[:4], "big")
@@ -79,47 +87,85 @@ class Baseline:
         }
 
 
+class Echo:
+    """The echo process and this side's socket, kept for a whole run.
+
+    :meth:`round` times a number of round trips; a run alternates rounds of
+    the baseline with rounds of the target, so that both halves of every ratio
+    come from the same minutes of a shared machine.
+    """
+
+    def __init__(self, cpus: set[int] | None = None) -> None:
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.bind(("127.0.0.1", 0))
+        self.echo = subprocess.Popen(
+            [sys.executable, "-c", ECHO, str(os.getpid()), str(self.sock.getsockname()[1])],
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            assert self.echo.stdout is not None
+            self.peer = ("127.0.0.1", int(self.echo.stdout.readline()))
+            if cpus is not None:
+                pin([self.echo.pid], cpus)
+            micros = int(RECEIVE_TIMEOUT_S * 1e6)
+            timeval = (micros // 1_000_000).to_bytes(8, "little") + (micros % 1_000_000).to_bytes(
+                8, "little"
+            )
+            self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVTIMEO, timeval)
+            self._waiter = Waiter(self.sock, default_idle(), RECEIVE_TIMEOUT_S)
+        except BaseException:
+            self.close()
+            raise
+        self._small = bytes(REQUEST_BYTES)
+        self._block = (REQUEST_BYTES + BLOCK_BYTES).to_bytes(4, "big") + bytes(REQUEST_BYTES - 4)
+
+    def _exchange(self, request: bytes) -> None:
+        self.sock.sendto(request, self.peer)
+        self._waiter.traffic()
+        if self._waiter.receive(65535) is None:
+            raise TargetError("the echo did not answer within 1 s")
+
+    def round(self, count: int, *, warmup: int = 0, progress: Progress | None = None) -> Baseline:
+        """``count`` small and ``count // 4`` block-sized round trips."""
+        small, lost = time_calls(
+            lambda: self._exchange(self._small), count, warmup=warmup, progress=progress
+        )
+        block, lost_block = time_calls(lambda: self._exchange(self._block), max(count // 4, 10))
+        return Baseline(small, block, lost + lost_block)
+
+    def close(self) -> None:
+        try:
+            self.sock.sendto(b"stop", self.peer) if hasattr(self, "peer") else None
+        finally:
+            self.sock.close()
+            _stop(self.echo)
+
+
+def merged(rounds: list[Baseline]) -> Baseline:
+    """One baseline of several rounds' samples."""
+    return Baseline(
+        [s for r in rounds for s in r.small],
+        [s for r in rounds for s in r.block],
+        sum(r.failures for r in rounds),
+    )
+
+
 def measure(
     count: int, *, warmup: int, cpus: set[int] | None = None, progress: Progress | None = None
 ) -> Baseline:
     """``count`` small and ``count // 4`` block-sized round trips against a fresh echo process."""
-    echo = subprocess.Popen(
-        [sys.executable, "-c", ECHO, str(os.getpid())],
-        stdin=subprocess.DEVNULL,
-        stdout=subprocess.PIPE,
-        text=True,
-    )
-    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    echo = Echo(cpus)
     try:
-        assert echo.stdout is not None
-        peer = ("127.0.0.1", int(echo.stdout.readline()))
-        if cpus is not None:
-            pin([echo.pid], cpus)
-        sock.bind(("127.0.0.1", 0))
-        sock.settimeout(RECEIVE_TIMEOUT_S)
-        small_request = bytes(REQUEST_BYTES)
-        block_request = (REQUEST_BYTES + BLOCK_BYTES).to_bytes(4, "big") + bytes(REQUEST_BYTES - 4)
-
-        def exchange(request: bytes) -> None:
-            sock.sendto(request, peer)
-            try:
-                sock.recv(65535)
-            except TimeoutError:
-                raise TargetError("the echo did not answer within 1 s") from None
-
         if progress is not None:
             progress.start("raw UDP ping-pong", count)
-        small, lost = time_calls(
-            lambda: exchange(small_request), count, warmup=warmup, progress=progress
-        )
-        block, lost_block = time_calls(lambda: exchange(block_request), max(count // 4, 10))
+        result = echo.round(count, warmup=warmup, progress=progress)
         if progress is not None:
-            progress.finish(f"median {summarize(small).p50_us:.1f} us")
-        sock.sendto(b"stop", peer)
-        return Baseline(small, block, lost + lost_block)
+            progress.finish(f"median {summarize(result.small).p50_us:.1f} us")
+        return result
     finally:
-        sock.close()
-        _stop(echo)
+        echo.close()
 
 
 def _stop(process: subprocess.Popen[str]) -> None:

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 import fw1394
 from fw1394.experiments import baseline
 from fw1394.experiments.baseline import Baseline
+from fw1394.experiments.bench_targets import Target
 from fw1394.experiments.connect import TargetSpec, open_target
 from fw1394.experiments.measurements import (
     BlockRun,
@@ -20,8 +21,14 @@ from fw1394.experiments.measurements import (
     measure_scale,
 )
 from fw1394.experiments.phase_progress import Progress
+from fw1394.experiments.private_bus import PrivateBus
 from fw1394.experiments.run_settings import Settings
+from fw1394.experiments.summary import summarize
 from fw1394.experiments.timing import cpu_split, pin
+from fw1394.transport.idle import default_idle
+
+#: Rounds the baseline and the quadlet figures alternate in.
+ROUNDS = 10
 
 
 @dataclass
@@ -46,6 +53,9 @@ def machine_info(pinned: bool) -> dict[str, object]:
         "fw1394": fw1394.__version__,
         "pinned": pinned,
         "load_average_before": [round(v, 2) for v in os.getloadavg()],
+        # How every process of the run waited for frames (the echo included).
+        "idle": str(default_idle()),
+        "interleaved_rounds": ROUNDS,
         "started": time.strftime("%Y-%m-%d %H:%M:%S %z"),
     }
 
@@ -82,42 +92,110 @@ def _measure(
 ) -> BenchResult:
     peers = None if split is None else split[1]
     machine = machine_info(split is not None)
-    floor = baseline.measure(
-        settings.baseline_iterations, warmup=settings.warmup, cpus=peers, progress=progress
-    )
-    progress.note("starting the target ...")
-    with open_target(spec, board=board, board_id=board_id, peer_cpus=peers, timeout=timeout) as (
-        target,
-        bus,
-    ):
-        result = BenchResult(settings, target.describe(), machine, floor)
-        if peers is not None:
-            pin(target.peer_pids(), peers)
-        if settings.runs("quadlet"):
-            result.quadlets = measure_quadlets(
-                target, settings.quadlet_iterations, warmup=settings.warmup, progress=progress
-            )
-        if settings.runs("block"):
-            result.blocks = measure_blocks(
-                target,
-                settings.block_sizes,
-                settings.block_passes,
-                warmup=min(settings.warmup, 100),
-                progress=progress,
-            )
-        if settings.runs("scale"):
-            if bus is None:
-                result.scale_skipped = (
-                    "needs the bench's own bus (the default target): growing another "
-                    "bus to 63 nodes would reset it dozens of times under its users"
-                )
-            else:
-                result.scale = measure_scale(
-                    bus,
-                    settings.scale_boards,
-                    settings.scale_iterations,
-                    warmup=min(settings.warmup, 200),
-                    progress=progress,
-                )
+    echo = baseline.Echo(peers)
+    try:
+        progress.note("starting the target ...")
+        with open_target(
+            spec, board=board, board_id=board_id, peer_cpus=peers, timeout=timeout
+        ) as (target, bus):
+            if peers is not None:
+                pin(target.peer_pids(), peers)
+            floor, quadlets = _interleaved(echo, target, settings, progress)
+            result = BenchResult(settings, target.describe(), machine, floor, quadlets)
+            _the_rest(echo, result, target, bus, settings, progress)
+    finally:
+        echo.close()
     machine["load_average_after"] = [round(v, 2) for v in os.getloadavg()]
     return result
+
+
+def _interleaved(
+    echo: baseline.Echo, target: Target, settings: Settings, progress: Progress
+) -> tuple[Baseline, QuadletRun | None]:
+    """The baseline, and the quadlet figures if asked for, in alternating rounds.
+
+    Round by round (raw, target, raw, target ...) both halves of each ratio see
+    the same load on a shared machine; one block of each would compare minutes
+    that may differ by a factor of three.
+    """
+    if not settings.runs("quadlet"):
+        progress.start("raw UDP ping-pong", settings.baseline_iterations)
+        floor = echo.round(settings.baseline_iterations, warmup=settings.warmup)
+        progress.finish(f"median {summarize(floor.small).p50_us:.1f} us")
+        return floor, None
+    quiet = Progress(enabled=False)
+    floors: list[Baseline] = []
+    runs: list[QuadletRun] = []
+    progress.start("raw UDP ping-pong and quadlets, interleaved", ROUNDS)
+    for number in range(ROUNDS):
+        warmup = settings.warmup if number == 0 else 0
+        floors.append(echo.round(max(settings.baseline_iterations // ROUNDS, 10), warmup=warmup))
+        iterations = max(settings.quadlet_iterations // ROUNDS, 10)
+        runs.append(measure_quadlets(target, iterations, warmup=warmup, progress=quiet))
+        progress.update(number + 1)
+    floor = baseline.merged(floors)
+    progress.finish(f"raw median {summarize(floor.small).p50_us:.1f} us")
+    quadlets = QuadletRun(
+        [s for run in runs for s in run.read],
+        [s for run in runs for s in run.write],
+        sum(run.failures for run in runs),
+    )
+    return floor, quadlets
+
+
+def _the_rest(
+    echo: baseline.Echo,
+    result: BenchResult,
+    target: Target,
+    bus: PrivateBus | None,
+    settings: Settings,
+    progress: Progress,
+) -> None:
+    if settings.runs("block"):
+        # A pass over every size per round, a baseline round between passes: the
+        # block figures' unit comes from the same minutes as they do.
+        passes: list[BlockRun] = []
+        floors = [result.baseline]
+        progress.start("block reads and writes, interleaved", settings.block_passes)
+        for number in range(settings.block_passes):
+            floors.append(echo.round(max(settings.baseline_iterations // ROUNDS, 10)))
+            passes.append(
+                measure_blocks(
+                    target,
+                    settings.block_sizes,
+                    1,
+                    warmup=min(settings.warmup, 100) if number == 0 else 0,
+                    progress=Progress(enabled=False),
+                    seed=1394 + number,
+                )
+            )
+            progress.update(number + 1)
+        progress.finish()
+        result.baseline = baseline.merged(floors)
+        result.blocks = _merged_blocks(passes)
+    if settings.runs("scale"):
+        if bus is None:
+            result.scale_skipped = (
+                "needs the bench's own bus (the default target): growing another "
+                "bus to 63 nodes would reset it dozens of times under its users"
+            )
+        else:
+            result.scale = measure_scale(
+                bus,
+                settings.scale_boards,
+                settings.scale_iterations,
+                warmup=min(settings.warmup, 200),
+                progress=progress,
+            )
+
+
+def _merged_blocks(passes: list[BlockRun]) -> BlockRun:
+    first = passes[0]
+    merged = BlockRun(first.sizes, len(passes))
+    for run in passes:
+        for size in run.sizes:
+            merged.read.setdefault(size, []).extend(run.read.get(size, []))
+            merged.write.setdefault(size, []).extend(run.write.get(size, []))
+    return BlockRun(
+        first.sizes, len(passes), merged.read, merged.write, sum(r.failures for r in passes)
+    )

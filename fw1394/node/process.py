@@ -21,6 +21,7 @@ from fw1394.engine.space import AddressSpace
 from fw1394.packets.nodeid import BROADCAST_ID
 from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig
+from fw1394.transport.idle import IdleStrategy
 from fw1394.transport.link import BusRefusedError, ResponderLink
 from fw1394.transport.membership import BusReset, Timing
 from fw1394.transport.station import Station
@@ -39,6 +40,8 @@ class NodeOptions:
     policy: ResponderPolicy = THESIS_FPGA
     #: Planted packet-level bugs for the fuzzer (fw1394.engine.defects); none normally.
     defects: frozenset[str] = frozenset()
+    #: How the node waits for requests; None: ``FW1394_IDLE``, else adaptive.
+    idle: IdleStrategy | None = None
 
 
 class Node:
@@ -54,6 +57,7 @@ class Node:
             timing=options.timing,
             faults=options.faults,
             drop_acks=True,
+            idle=options.idle,
         )
         # No physical ID before the first self-ID phase: the link's reset hook gives it.
         self.responder = (

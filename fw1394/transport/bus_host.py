@@ -26,6 +26,7 @@ from fw1394.packets.nodeid import BROADCAST_ID, resolve
 from fw1394.packets.nodeid import LOCAL_BUS as LOCAL_BUS  # the bus hosts address, re-exported
 from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig
+from fw1394.transport.idle import IdleStrategy
 from fw1394.transport.link import ACK_SIZE, BusRefusedError, RequesterLink
 from fw1394.transport.membership import BusReset, Timing
 from fw1394.transport.station import Station
@@ -75,6 +76,7 @@ class BusHost:
         timing: Timing | None = None,
         faults: FaultConfig | None = None,
         poll_interval: float = 0.005,
+        idle: IdleStrategy | None = None,
     ) -> None:
         self.config = config or BusConfig()
         self.join_timeout = join_timeout
@@ -85,6 +87,7 @@ class BusHost:
             timing=timing,
             faults=faults,
             poll_interval=poll_interval,
+            idle=idle,
         )
         self.requester = Requester(
             node_id=BROADCAST_ID,  # no physical ID before the first self-ID phase

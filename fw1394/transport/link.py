@@ -30,8 +30,11 @@ import time
 from collections.abc import Callable, Iterable
 
 from fw1394.engine import Requester, Responder
+from fw1394.engine.fast_requester import FastEnds
+from fw1394.engine.fast_responder import FastResponder
 from fw1394.engine.responder import Reply, decode_received
-from fw1394.packets import AsyncPacket
+from fw1394.packets import AckCode, AsyncPacket, PacketError
+from fw1394.packets.accessors import TLABEL
 from fw1394.packets.ack import ack_code
 from fw1394.packets.fast import decode_packet, encode_packet
 from fw1394.packets.nodeid import BROADCAST_ID, node_id, phy_of
@@ -53,9 +56,11 @@ ASYNC_PACKET, ACK = int(FrameKind.async_packet), int(FrameKind.ack)
 #: Wire byte of each ack code (code and parity), looked up rather than computed.
 ACK_BYTES = tuple(ack_byte(code) for code in range(16))
 ACK_SIZE = ACK_PAYLOAD.size
+ACK_COMPLETE_BYTE = ACK_BYTES[AckCode.ack_complete]
 _pack_ack = ACK_PAYLOAD.pack
 _unpack_ack = ACK_PAYLOAD.unpack_from
 _clock = time.monotonic
+_tlabel = TLABEL.of_bytes
 
 
 class BusRefusedError(RuntimeError):
@@ -161,10 +166,34 @@ class ResponderLink(LinkLayer):
         self.responder = responder
         self.epoch = epoch
         self.on_drop = on_drop
+        # The common turn on flat bytes; a responder of another class (planted
+        # defects) has its own rules and always takes the reference path.
+        fast = FastResponder(responder) if type(responder) is Responder else None
+        self._fast = None if fast is None or not fast.kinds else fast.serve
 
     def take(self, header: FrameHeader, payload: bytes, now: float) -> None:
-        if header.kind == ASYNC_PACKET:
-            self.serve(payload, header.sender_phy, header.sequence, now)
+        if header.kind != ASYNC_PACKET:
+            return
+        fast = self._fast
+        if fast is not None:
+            sequence = header.sequence
+            answer = fast(payload, sequence, now - self.epoch)
+            if answer.__class__ is bytes:
+                self._send_ack(answer, header.sender_phy)
+                return
+            if answer is not None:
+                assert isinstance(answer, Reply)
+                self.answer(answer, _tlabel(payload), header.sender_phy, sequence)
+                return
+        self.serve(payload, header.sender_phy, header.sequence, now)
+
+    def _send_ack(self, frame: bytes, requester: int) -> None:
+        """Send an ack frame payload from the fast path (the response may be behind it)."""
+        try:
+            self.send(ACK, requester, frame)
+        except FrameTooLarge as error:
+            self._drop(requester, error)
+            self.send(ACK, requester, frame[:ACK_SIZE])  # the ack alone still goes out
 
     def serve(self, payload: bytes, requester: int, sequence: int, now: float) -> Reply:
         """Answer the packet ``payload`` that came in frame ``sequence`` from ``requester``."""
@@ -219,11 +248,21 @@ class RequesterLink(LinkLayer):
     def __init__(self, requester: Requester, send: Send, station: Station | None = None) -> None:
         super().__init__(send, station)
         self.requester = requester
+        #: The common ends on flat bytes (None: the general path only).
+        self.fast_ack: Callable[[int, bytes, float], int | None] | None = FastEnds(requester).ack
 
     def take(self, header: FrameHeader, payload: bytes, now: float) -> None:
         kind = header.kind
         if kind == ACK:
-            self.on_ack(header.sender_phy, header.sequence, payload, now)
+            fast = self.fast_ack
+            label = None if fast is None else fast(header.sender_phy, payload, now)
+            if label is None:
+                self.on_ack(header.sender_phy, header.sequence, payload, now)
+            else:
+                if label >= 0:  # a concatenated response completed: the link acks it
+                    ack = _pack_ack(ACK_COMPLETE_BYTE, label, 0, header.sequence)
+                    self.send(ACK, header.sender_phy, ack)
+                self.flush()  # as the general path: the end may have freed a label
         elif kind == ASYNC_PACKET:
             self.on_response(header.sender_phy, header.sequence, payload, now)
         else:
@@ -248,11 +287,15 @@ class RequesterLink(LinkLayer):
 
     def on_response(self, sender: int, sequence: int, payload: bytes, now: float) -> None:
         """A response packet from ``sender`` in frame ``sequence``, acked if the engine says so."""
-        packet = decode_packet(payload)
-        code = self.requester.receive_response(packet, now)
-        if code is not None:
-            tlabel: int = getattr(packet, "tlabel", 0)
-            self.send(ACK, sender, _pack_ack(ACK_BYTES[code], tlabel, 0, sequence))
+        try:
+            packet = decode_packet(payload)
+        except PacketError:
+            packet = None  # line noise (a reserved tcode): nothing on a real bus acks it
+        if packet is not None:
+            code = self.requester.receive_response(packet, now)
+            if code is not None:
+                tlabel: int = getattr(packet, "tlabel", 0)
+                self.send(ACK, sender, _pack_ack(ACK_BYTES[code], tlabel, 0, sequence))
         self.flush()  # the end may have freed a label a waiting request needs
 
     def flush(self) -> None:

@@ -13,6 +13,7 @@ import time
 
 from fw1394.transport import bpf
 from fw1394.transport.config import BusConfig
+from fw1394.transport.idle import BLOCK, IdleStrategy, Waiter
 
 #: Room for bursts (a 63-node self-ID phase, back-to-back block responses).
 RECEIVE_BUFFER = 1 << 21
@@ -24,9 +25,15 @@ _TIMESPEC = struct.Struct("@qq")
 
 
 class Medium:
-    """A socket bound to the bus group; ``poll_interval`` bounds a blocking receive."""
+    """A socket bound to the bus group; ``poll_interval`` bounds a blocking receive.
 
-    def __init__(self, config: BusConfig, poll_interval: float = 0.005) -> None:
+    ``idle`` is how :meth:`receive` waits (:mod:`fw1394.transport.idle`); plain
+    blocking unless given, as for taps and tools that only listen.
+    """
+
+    def __init__(
+        self, config: BusConfig, poll_interval: float = 0.005, idle: IdleStrategy = BLOCK
+    ) -> None:
         self.config = config
         self.destination = (config.group, config.port)
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -36,6 +43,12 @@ class Medium:
             sock.close()
             raise
         self.sock = sock
+        self.idle = idle
+        self._waiter = Waiter(sock, idle, poll_interval)
+        self._wait = self._waiter.receive
+        self._sendto = sock.sendto
+        # Sending is traffic only to a member that polls after traffic.
+        self._traffic = self._waiter.traffic if idle.window else None
 
     def _configure(self, sock: socket.socket, poll_interval: float) -> None:
         cfg = self.config
@@ -75,16 +88,15 @@ class Medium:
         # wire; the transaction layer's retries and timeouts deal with it. A try
         # statement costs nothing here, contextlib.suppress a context manager per frame.
         try:  # noqa: SIM105
-            self.sock.sendto(frame, self.destination)
+            self._sendto(frame, self.destination)
         except (BlockingIOError, InterruptedError):
             pass
+        if self._traffic is not None:
+            self._traffic()  # the answer comes soon: be awake for it
 
     def receive(self) -> bytes | None:
         """The next frame, or None when the poll interval passes without one."""
-        try:
-            return self.sock.recv(MAX_FRAME)
-        except (BlockingIOError, InterruptedError):
-            return None
+        return self._wait(MAX_FRAME)
 
     def receive_queued(self) -> bytes | None:
         """The next frame already queued, or None at once if there is none."""

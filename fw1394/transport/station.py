@@ -24,6 +24,7 @@ from fw1394.packets.frame import FRAME_TRAILER_SIZE
 from fw1394.transport import runtime
 from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig, FaultInjector
+from fw1394.transport.idle import IdleStrategy, default_idle
 from fw1394.transport.medium import Medium
 from fw1394.transport.membership import Change, Membership, Role, Timing
 from fw1394.transport.procs import pid_namespace, process_alive
@@ -91,6 +92,7 @@ class Station:
         faults: FaultConfig | None = None,
         poll_interval: float = 0.005,
         drop_acks: bool = False,
+        idle: IdleStrategy | None = None,
     ) -> None:
         self.config = config
         self._drop_acks = drop_acks
@@ -106,7 +108,9 @@ class Station:
             pid_namespace=pid_namespace(),
         )
         self._member_id = self.info.member_id
-        self.medium = Medium(config, poll_interval)
+        #: How this member waits for frames (``FW1394_IDLE`` unless given).
+        self.idle = default_idle() if idle is None else idle
+        self.medium = Medium(config, poll_interval, self.idle)
         # A keyed bus: every datagram out is sealed (each copy on its own), every
         # one in verified; docs/virtual-bus.md, "Faults and threats".
         key = key_for(config)

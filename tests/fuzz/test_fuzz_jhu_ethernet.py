@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from typing import Any
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -117,7 +118,12 @@ def _request(draw: st.DrawFn) -> bytes:
     )
     tlabel = draw(st.integers(0, 63))
     value = draw(st.sampled_from([0, 0x0003_0000, 0x0000_0F0F, 0x0080_0000, 0xFFFF_FFFF, 7]))
-    common = {"destination_id": node, "tlabel": tlabel, "source_id": 0xFFFE, "offset": offset}
+    common: dict[str, Any] = {
+        "destination_id": node,
+        "tlabel": tlabel,
+        "source_id": 0xFFFE,
+        "offset": offset,
+    }
     if kind == "qread":
         packet = encode(QuadletReadRequest(**common))
     elif kind == "qwrite":

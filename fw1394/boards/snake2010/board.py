@@ -104,6 +104,9 @@ class Snake2010Board:
         self._now = 0
         self._last_realtime_read = 0
         self._previous_block: bytes | None = None
+        # elapsed, status, reserved zeros; ADC, encoder, period words; zeros.
+        n = len(self.channels)
+        self._rt_layout = struct.Struct(f">2I{4 * (RT_HEADER_QUADLETS - 2)}x{3 * n}I{4 * n}x")
 
     # --- observation (not reachable over the bus) --------------------------
     @property
@@ -274,14 +277,11 @@ class Snake2010Board:
             return
         # Registers cannot change inside this loop, so fetch each drive once;
         # unpowered motors at rest cannot move and are left out.
-        motors = [
-            (ch.motor.advance, ch.drive)
-            for ch in self.channels
-            if ch.drive.powered or ch.motor.velocity_rad_s != 0.0
-        ]
-        if not motors:
+        moving = [ch for ch in self.channels if ch.drive.powered or ch.motor.velocity_rad_s != 0.0]
+        if not moving:
             self._now = target
             return
+        motors = [(ch.motor.advance, ch.drive) for ch in moving]
         while now < target:
             nxt = min((now // step + 1) * step, target)
             seconds = (nxt - now) / TICKS_PER_SECOND
@@ -289,17 +289,22 @@ class Snake2010Board:
                 advance(seconds, drive)
             now = nxt
         self._now = now
+        for channel in moving:
+            channel.moved()
 
     def _realtime_block(self) -> bytes:
         elapsed = (self._now - self._last_realtime_read) & 0xFFFF_FFFF
         self._last_realtime_read = self._now
-        channels = self.channels
-        words = [elapsed, self.status] + [0] * (RT_HEADER_QUADLETS - 2)
-        words += [ch.adc_word() for ch in channels]
-        words += [ch.encoder_word() for ch in channels]
-        words += [ch.period_word() for ch in channels]
-        words += [0] * len(channels)  # encoder frequency: not implemented
-        block = struct.pack(f">{len(words)}I", *words)
+        # Laid out by kind (every ADC word, then every encoder word, every period
+        # word, and the unimplemented frequency words as zeros).
+        words = [ch.realtime_words() for ch in self.channels]
+        block = self._rt_layout.pack(
+            elapsed,
+            self.status,
+            *[w[0] for w in words],
+            *[w[1] for w in words],
+            *[w[2] for w in words],
+        )
         if "stale-read" in self.defects:
             # Planted bug: hand out the block latched by the previous read.
             previous, self._previous_block = self._previous_block, block

@@ -71,6 +71,9 @@ class Channel:
         self._drive: Drive | None = None  # cache, rebuilt after register writes
         self._gain = current_feedback_gain(self.pot.wiper)  # follows pot writes
         self._counts_per_rad = constants.encoder_counts_per_rev / (2.0 * math.pi)
+        # The real-time block's words, kept until the motor moves or a register
+        # changes: a servo loop reads them far more often than a motor at rest changes.
+        self._words: tuple[int, int, int] | None = None
 
     # --- the amplifier ---------------------------------------------------
     @property
@@ -83,6 +86,7 @@ class Channel:
         if value != self._powered:
             self._powered = value
             self._drive = None
+            self._words = None
 
     @property
     def drive(self) -> Drive:
@@ -105,6 +109,17 @@ class Channel:
     def current_amps(self) -> float:
         """Motor current now (0 when the amplifier is off)."""
         return self.motor.current_amps(self.drive)
+
+    def realtime_words(self) -> tuple[int, int, int]:
+        """ADC, encoder and period words, as :meth:`read` gives them, kept while valid."""
+        words = self._words
+        if words is None:
+            words = self._words = (self.adc_word(), self.encoder_word(), self.period_word())
+        return words
+
+    def moved(self) -> None:
+        """The motor's state changed (the board stepped its physics)."""
+        self._words = None
 
     # --- registers -------------------------------------------------------
     def read(self, device: int) -> int:
@@ -136,6 +151,7 @@ class Channel:
             # The wiper or O1 may have changed.
             self._gain = current_feedback_gain(self.pot.wiper)
             self._drive = None
+            self._words = None
         elif device == Device.ENCODER_PRELOAD:
             self.preload_encoder(value)
 
@@ -149,12 +165,14 @@ class Channel:
         else:
             self.motor_command = code
         self._drive = None
+        self._words = None
 
     def preload_encoder(self, value: int) -> None:
         """Load the 24-bit counter and clear its overflow flag."""
         self.preload = value & ENCODER_COUNT_MASK
         self._count_at_preload = self._raw_count(self.motor.angle_rad)
         self.motor.reset_excursion()
+        self._words = None
 
     def adc_word(self) -> int:
         """Pot sample in bits 31-16, motor-current sample in bits 15-0."""

@@ -1,0 +1,271 @@
+"""The link layer's fast paths send the same bytes and leave the same state as the reference.
+
+Two responder links over two identical address spaces get the same frames; one
+serves through :class:`fw1394.engine.fast_responder.FastResponder` where it
+can, the other only through the general :class:`fw1394.engine.Responder`. Every
+frame each link sends, and the memory behind it afterwards, must be equal.
+The requests are drawn by hypothesis: every request kind, other nodes' and
+broadcast destinations, foreign bus IDs, offsets in and outside the memory,
+odd lengths, flipped bits, injected busy, bus resets, and every policy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Any
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from fw1394.boards.memory.board import MemorySpace
+from fw1394.boards.registry import make_board
+from fw1394.engine import Requester, Responder
+from fw1394.engine.fast_responder import FastResponder
+from fw1394.engine.policy import POLICIES
+from fw1394.packets import (
+    AckCode,
+    BlockReadRequest,
+    BlockWriteRequest,
+    LockRequest,
+    QuadletReadRequest,
+    QuadletWriteRequest,
+)
+from fw1394.packets.ack import ACK_BYTES
+from fw1394.packets.fast import decode_packet, encode_packet
+from fw1394.packets.nodeid import node_id
+from fw1394.transport.link import RequesterLink, ResponderLink
+from fw1394.transport.wire import FrameHeader, FrameKind
+
+MEMORY = 256
+ME = 2
+
+
+def _links(policy: str, board: str = "memory") -> tuple[list[Any], list[ResponderLink]]:
+    sent: list[Any] = []
+    links = []
+    for path in ("fast", "reference"):
+
+        def send(kind: int, destination: int, payload: bytes, path: str = path) -> None:
+            sent.append((path, kind, destination, bytes(payload)))
+
+        space = MemorySpace(MEMORY) if board == "memory" else make_board(board, board_id=3)
+        responder = Responder(node_id(ME), space, POLICIES[policy])
+        link = ResponderLink(responder, send, epoch=0.0)
+        if path == "reference":
+            link._fast = None  # the general engine only
+        links.append(link)
+    return sent, links
+
+
+offsets = st.one_of(
+    st.integers(0, MEMORY // 4 - 1).map(lambda q: 4 * q),
+    st.integers(0, MEMORY + 8),
+    st.sampled_from([0xFFFF_F000_0000, 0xFFFF_F000_0400, 1 << 40]),
+)
+destinations = st.tuples(st.sampled_from([0x3FF, 0, 5]), st.sampled_from([ME, ME, ME, 1, 63])).map(
+    lambda bus_phy: bus_phy[0] << 6 | bus_phy[1]
+)
+
+
+@st.composite
+def requests(draw: Any) -> bytes:
+    kind = draw(st.sampled_from(["qr", "br", "qw", "bw", "lock"]))
+    route = {
+        "destination_id": draw(destinations),
+        "tlabel": draw(st.integers(0, 63)),
+        "source_id": draw(st.sampled_from([0xFFC0, 0xFFC1, 0xFFFE])),
+        "offset": draw(offsets),
+    }
+    packet: Any
+    if kind == "qr":
+        packet = QuadletReadRequest(**route)
+    elif kind == "br":
+        packet = BlockReadRequest(**route, data_length=draw(st.integers(0, 80)))
+    elif kind == "qw":
+        packet = QuadletWriteRequest(**route, quadlet_data=draw(st.integers(0, (1 << 32) - 1)))
+    elif kind == "bw":
+        packet = BlockWriteRequest(**route, data=draw(st.binary(max_size=40)))
+    else:
+        operands = draw(st.binary(min_size=8, max_size=8))
+        packet = LockRequest(**route, extended_tcode=2, data=operands)
+    raw = bytearray(encode_packet(packet))
+    if draw(st.integers(0, 5)) == 0:  # line noise: a flipped bit or a cut
+        if draw(st.booleans()):
+            raw[draw(st.integers(0, len(raw) - 1))] ^= 1 << draw(st.integers(0, 7))
+        else:
+            del raw[draw(st.integers(0, len(raw) - 1)) :]
+    return bytes(raw)
+
+
+steps = st.one_of(
+    requests(),
+    st.tuples(st.just("busy"), st.integers(1, 3)),
+    st.tuples(st.just("reset"), st.sampled_from([ME, 1])),
+)
+
+
+def _run(sent: list[Any], links: list[ResponderLink], script: list[Any]) -> None:
+    for number, step in enumerate(script):
+        for link in links:
+            if isinstance(step, bytes):
+                header = FrameHeader(FrameKind.async_packet, 1, 7, 0, 9, ME, sequence=number)
+                link.take(header, step, 1.0 + number * 1e-4)
+            elif step[0] == "busy":
+                link.responder.inject_busy(step[1])
+            else:
+                link.bus_reset(phy=step[1], generation=number)
+        fast = [frame[1:] for frame in sent if frame[0] == "fast"]
+        reference = [frame[1:] for frame in sent if frame[0] == "reference"]
+        assert fast == reference, f"step {number}: {step!r}"
+        sent.clear()
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.sampled_from(sorted(POLICIES)), st.lists(steps, max_size=25))
+def test_fast_responder_link_equals_reference(policy: str, script: list[Any]) -> None:
+    sent, links = _links(policy)
+    _run(sent, links, script)
+    memories = [link.responder.space.read_block(0, MEMORY) for link in links]
+    assert memories[0] == memories[1]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(requests(), max_size=12))
+def test_fast_responder_equals_reference_on_a_board(script: list[bytes]) -> None:
+    # A board's registers depend on the time each request came: both get the same.
+    sent, links = _links("thesis", "snake2010")
+    _run(sent, links, script)
+
+
+def test_fast_path_serves_the_common_kinds() -> None:
+    # The thesis policy answers reads and writes at once: all four plain kinds are fast.
+    fast = FastResponder(Responder(node_id(ME), MemorySpace(MEMORY), POLICIES["thesis"]))
+    assert fast.kinds == {0, 1, 4, 5}
+    # A node that splits every answer has no fast path at all.
+    split = FastResponder(Responder(node_id(ME), MemorySpace(MEMORY), POLICIES["ieee1394"]))
+    assert split.kinds == frozenset()
+    read = encode_packet(QuadletReadRequest(destination_id=node_id(ME), tlabel=9, offset=4))
+    answer = fast.serve(read, 77, 0.5)
+    assert isinstance(answer, bytes)
+    assert answer[:8] == bytes([0x2D, 9, 0, 0, 0, 0, 0, 77])  # ack_pending, label, sequence
+
+
+# -- the requester's side ----------------------------------------------------------------
+HOST = 5
+
+
+def _hosts(split_timeout: float) -> tuple[list[Any], list[RequesterLink]]:
+    sent: list[Any] = []
+    links = []
+    for path in ("fast", "reference"):
+
+        def send(kind: int, destination: int, payload: bytes, path: str = path) -> None:
+            sent.append((path, kind, destination, bytes(payload)))
+
+        requester = Requester(
+            node_id(HOST), split_timeout=split_timeout, ack_timeout=0.05, duplicate_window=0.0
+        )
+        link = RequesterLink(requester, send)
+        if path == "reference":
+            link.fast_ack = None
+        links.append(link)
+    return sent, links
+
+
+def _answer(request: Any, mutation: int, where: int) -> bytes:
+    """The ack frame payload a thesis node sends for ``request``, then spoiled by ``mutation``."""
+    out: list[bytes] = []
+    space = MemorySpace(MEMORY)
+    responder = Responder(request.destination_id, space, POLICIES["thesis"])
+    ResponderLink(responder, lambda kind, to, payload: out.append(payload)).serve(
+        encode_packet(request), HOST, 1, 0.0
+    )
+    payload = bytearray(out[0] if out else bytes(8))
+    if mutation == 1 and len(payload) > 8:  # a flipped bit in the response
+        payload[8 + where % (len(payload) - 8)] ^= 1 << (where % 8)
+    elif mutation == 2:  # another ack code
+        payload[0] = ACK_BYTES[
+            [AckCode.ack_busy_X, AckCode.ack_complete, AckCode.ack_pending][where % 3]
+        ]
+    elif mutation == 3:  # the ack alone
+        del payload[8:]
+    elif mutation == 4:  # a label no transaction holds
+        payload[1] ^= 1 + where % 63
+    elif mutation >= 5 and len(payload) > 8:  # a sound response that answers something else
+        response: Any = decode_packet(bytes(payload[8:]))
+        if mutation == 5:
+            response = replace(response, tlabel=(response.tlabel + 1 + where) % 64)
+        elif mutation == 6 and hasattr(response, "data"):
+            response = replace(response, data=response.data[: where % 8], data_length=-1)
+        elif mutation == 7:
+            response = replace(response, source_id=response.source_id ^ (1 << (where % 16)))
+        else:
+            response = replace(response, destination_id=node_id(where % 64, where % 1024))
+        fresh = {"data_crc": None} if hasattr(response, "data") else {}
+        payload[8:] = encode_packet(replace(response, header_crc=None, **fresh))
+    return bytes(payload)
+
+
+host_steps = st.one_of(
+    st.tuples(
+        st.just("start"),
+        st.sampled_from(["qr", "br", "qw", "bw"]),
+        st.sampled_from([0, 1]),
+        st.integers(0, MEMORY // 4).map(lambda q: 4 * q),
+        st.integers(0, 24),
+    ),
+    st.tuples(st.just("answer"), st.integers(0, 7), st.integers(0, 8), st.integers(0, 1000)),
+    st.tuples(st.just("time"), st.sampled_from([0.001, 0.03, 0.2])),
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.sampled_from([0.02, 0.5]), st.lists(host_steps, max_size=30))
+def test_fast_requester_link_equals_reference(split_timeout: float, script: list[Any]) -> None:
+    sent, links = _hosts(split_timeout)
+    now = 1.0
+    for number, step in enumerate(script):
+        if step[0] == "time":
+            now += step[1]
+            for link in links:
+                link.requester.handle_timer(now)
+                link.flush()
+        elif step[0] == "start":
+            _, kind, phy, offset, length = step
+            for link in links:
+                requester, to = link.requester, node_id(phy)
+                if kind == "qr":
+                    requester.read_quadlet(to, offset, now)
+                elif kind == "br":
+                    requester.read_block(to, offset, length, now)
+                elif kind == "qw":
+                    requester.write_quadlet(to, offset, length * 0x01010101, now)
+                else:
+                    requester.write_block(to, offset, bytes(range(length)), now)
+                link.flush()
+        else:
+            _, index, mutation, where = step
+            reference = links[1].requester
+            live = sorted(reference._transactions.values(), key=lambda t: t.tid)
+            live = [t for t in live if t.label >= 0]
+            if not live:
+                continue
+            transaction = live[index % len(live)]
+            payload = _answer(transaction.request, mutation, where)
+            header = FrameHeader(FrameKind.ack, 1, 9, 0, transaction.key, HOST, sequence=number)
+            for link in links:
+                link.take(header, payload, now)
+        fast = [frame[1:] for frame in sent if frame[0] == "fast"]
+        assert fast == [frame[1:] for frame in sent if frame[0] == "reference"], step
+        sent.clear()
+        events = [link.requester.events() for link in links]
+        assert events[0] == events[1], step
+        states = [
+            (
+                link.requester.in_flight(),
+                link.requester.outstanding,
+                link.requester.next_deadline(),
+            )
+            for link in links
+        ]
+        assert states[0] == states[1], step

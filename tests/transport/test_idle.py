@@ -1,0 +1,91 @@
+"""Idle strategies: parsing, the environment default, and receiving on real loopback sockets."""
+
+from __future__ import annotations
+
+import math
+import socket
+import struct
+import time
+from collections.abc import Iterator
+
+import pytest
+
+from fw1394.transport.idle import (
+    ADAPTIVE,
+    BLOCK,
+    ENVIRONMENT,
+    SPIN,
+    IdleStrategy,
+    Waiter,
+    default_idle,
+    parse_idle,
+    spare_core,
+)
+
+
+def test_parse_names_and_windows() -> None:
+    assert parse_idle("block") is BLOCK and BLOCK.window == 0
+    assert parse_idle(" SPIN ") is SPIN and SPIN.window == math.inf
+    assert parse_idle("adaptive") is ADAPTIVE
+    assert parse_idle("adaptive:100") == IdleStrategy("adaptive", 100e-6)
+    assert str(parse_idle("adaptive:100")) == "adaptive:100"
+    assert str(ADAPTIVE) == "adaptive"
+    assert parse_idle(str(parse_idle("adaptive:40"))) == parse_idle("adaptive:40")
+
+
+@pytest.mark.parametrize("text", ["", "sleep", "block:10", "spin:5", "adaptive:x", "adaptive:-1"])
+def test_parse_refuses_with_one_line(text: str) -> None:
+    with pytest.raises(ValueError, match="idle strategy") as error:
+        parse_idle(text)
+    assert "\n" not in str(error.value)
+
+
+def test_environment_names_the_default(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv(ENVIRONMENT, raising=False)
+    assert default_idle() is ADAPTIVE
+    monkeypatch.setenv(ENVIRONMENT, "block")
+    assert default_idle() is BLOCK
+    monkeypatch.setenv(ENVIRONMENT, "adaptive:75")
+    assert default_idle().window == pytest.approx(75e-6)
+
+
+def test_spare_core_reads_the_run_queue() -> None:
+    # This process is running while it looks: never a spare core on one CPU.
+    assert spare_core(1) is False or not _has_loadavg()
+    assert spare_core(10_000) is True
+
+
+def _has_loadavg() -> bool:
+    try:
+        with open("/proc/loadavg"):
+            return True
+    except OSError:
+        return False
+
+
+@pytest.fixture
+def pair() -> Iterator[tuple[socket.socket, socket.socket]]:
+    receiver = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sender = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    receiver.bind(("127.0.0.1", 0))
+    # A 20 ms kernel receive timeout, as a medium sets its poll interval.
+    receiver.setsockopt(socket.SOL_SOCKET, socket.SO_RCVTIMEO, struct.pack("@ll", 0, 20_000))
+    yield receiver, sender
+    receiver.close()
+    sender.close()
+
+
+@pytest.mark.parametrize("strategy", [BLOCK, SPIN, ADAPTIVE, parse_idle("adaptive:5000")])
+def test_every_strategy_receives_and_times_out(
+    pair: tuple[socket.socket, socket.socket], strategy: IdleStrategy
+) -> None:
+    receiver, sender = pair
+    waiter = Waiter(receiver, strategy, 0.02)
+    waiter.traffic()
+    sender.sendto(b"frame one", receiver.getsockname())
+    assert waiter.receive(100) == b"frame one"
+    started = time.monotonic()
+    assert waiter.receive(100) is None  # nothing comes: the poll interval ends the wait
+    assert 0.005 < time.monotonic() - started < 2.0
+    sender.sendto(b"frame two", receiver.getsockname())
+    assert waiter.receive(100) == b"frame two"
