@@ -53,6 +53,7 @@ from fw1394.packets import (
     name_of,
 )
 from fw1394.packets.fast import builder
+from fw1394.packets.nodeid import phy_of
 
 _BROADCAST_NODE = 63
 _OFFSET_LIMIT = 1 << 48
@@ -139,6 +140,10 @@ class Requester:
     def queued(self) -> int:
         """Transactions not sent yet because every label to their destination is out of use."""
         return sum(len(waiting) for waiting in self._waiting.values())
+
+    def labels_taken(self, destination_id: int) -> int:
+        """Labels to ``destination_id`` that are not free: in use, or held after an end."""
+        return self._labels.in_use(phy_of(destination_id))
 
     def in_flight(self) -> dict[int, tuple[int, int]]:
         """Transactions sent and not ended: id -> (destination ID, transaction label)."""

@@ -280,9 +280,11 @@ class EngineMachine(RuleBasedStateMachine):
         # only on a quiet link, so no burst may outrun them.
         self.link.run()
         self.check()
-        if self.late_answers:
-            count = min(count, 64 - self.link.requester.outstanding)
         destination = self.destination(choice)
+        if self.late_answers:  # only labels free now: a held one may still be answered late
+            count = min(count, 64 - self.link.requester.labels_taken(destination))
+        if count <= 0:
+            return
         for n in range(count):
             self.start("read", destination, 4 * (n % 16), b"", -1)
         self.check()
