@@ -17,13 +17,13 @@ from enum import IntEnum
 from construct import Struct
 
 from fw1394 import __version__
-from fw1394.capture.formats import pseudo_header
-from fw1394.capture.formats.record import Direction, RecordType
 from fw1394.capture.analysis.transaction_model import (
     DEFAULT_EXPIRY_NS,
     ERROR_ACKS,
     RETRY_ACKS,
 )
+from fw1394.capture.formats import pseudo_header
+from fw1394.capture.formats.record import Direction, RecordType
 from fw1394.capture.views.lua_runtime import RUNTIME
 from fw1394.crc import crc32
 from fw1394.packets import LAYOUTS, PHY_CLASSES, PacketError

@@ -211,7 +211,8 @@ local function track_request(pinfo, values, tcode, ack)
     tx.ack = nil
   else
     tx = { key = key, tcode = tcode, frames = { pinfo.number }, attempts = 1,
-           first_time = pinfo.rel_ts, broadcast = band(values.dst_id, BROADCAST_PHY) == BROADCAST_PHY }
+           first_time = pinfo.rel_ts,
+           broadcast = band(values.dst_id, BROADCAST_PHY) == BROADCAST_PHY }
     state.open[key] = tx
   end
   tx.last_time = pinfo.rel_ts
