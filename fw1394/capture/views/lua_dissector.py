@@ -20,7 +20,9 @@ from fw1394 import __version__
 from fw1394.capture.analysis.transaction_model import (
     DEFAULT_EXPIRY_NS,
     ERROR_ACKS,
+    NO_ACK,
     RETRY_ACKS,
+    WRITES,
 )
 from fw1394.capture.formats import pseudo_header
 from fw1394.capture.formats.record import Direction, RecordType
@@ -244,9 +246,11 @@ def generate() -> str:
         f"local ACK_PARITY = {_flat_row(ACK_FIELDS['ack.parity'], 'ack_parity')}",
         f"local PHY_KIND_BITS = {_phy_kind_rows()}",
         f"local RESPONSE_OF_REQUEST = {_response_table()}",
-        f"local RETRY_ACKS = {_lua_set(RETRY_ACKS)}",
+        f"local RETRY_ACKS = {_lua_set(RETRY_ACKS.tolist())}",
+        f"local WRITE_TCODES = {_lua_set(WRITES.tolist())}",
         f"local ERROR_ACKS = {_lua_set(ERROR_ACKS.tolist())}",
         f"local ACK_COMPLETE = {int(AckCode.ack_complete)}",
+        f"local NO_ACK = {NO_ACK}",
         f"local BROADCAST_PHY = {BROADCAST_PHY}",
         f"local EXPIRY_SECONDS = {DEFAULT_EXPIRY_NS / 1e9!r}",
         f"local CRC_TABLE = {_crc_table()}",

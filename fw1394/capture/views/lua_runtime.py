@@ -267,13 +267,22 @@ local function nstime(seconds)
   return NSTime.new(whole, nanoseconds)
 end
 
+-- An open request the trace never answers: not closed by its ack, not a broadcast, not a
+-- retry that gave up (busy, or no ack at all), not a write whose ack nobody saw.
+local function expects_response(tx)
+  if tx.closed or tx.broadcast or tx.ack == NO_ACK or (tx.ack and RETRY_ACKS[tx.ack]) then
+    return false
+  end
+  return tx.ack ~= nil or not WRITE_TCODES[tx.tcode]
+end
+
 local function add_links(tree, pinfo, record, timed)
   if not record then return end
   local tx = record.request or record.tx
   if record.request then
     if tx.response then
       tree:add(F.response_in, tx.response):set_generated()
-    elseif pinfo.visited and not tx.closed and not tx.broadcast then
+    elseif pinfo.visited and expects_response(tx) then
       tree:add_proto_expert_info(X.unanswered)
     end
     tree:add(F.attempts, tx.attempts):set_generated()
