@@ -53,6 +53,8 @@ def write_plots(result: BenchResult, digest: dict[str, Any], directory: Path) ->
 
 
 def _quadlets(pyplot: Any, run: QuadletRun) -> Any:
+    from matplotlib.ticker import MaxNLocator
+
     figure, axes = pyplot.subplots(
         2, 2, figsize=(9, 6), sharey="row", gridspec_kw={"width_ratios": [3, 1]}
     )
@@ -92,6 +94,7 @@ def _quadlets(pyplot: Any, run: QuadletRun) -> Any:
                 fontsize=7,
             )
         histogram.set_xlabel("transactions")
+        histogram.xaxis.set_major_locator(MaxNLocator(integer=True))
     axes[1][0].set_xlabel("iteration")
     return figure
 
