@@ -6,6 +6,7 @@ generated dissector loaded), so a field counts only if Wireshark registered it.
 
 from __future__ import annotations
 
+import json
 import re
 import shutil
 import subprocess
@@ -13,8 +14,11 @@ from pathlib import Path
 
 import pytest
 
+from fw1394.capture.analysis.traffic_sim import Scenario, simulate
+from fw1394.capture.formats.trace_writer import write_trace
 from fw1394.capture.views.display_filter import ALIASES, FIELDS, PREFIX, field_name
 from fw1394.capture.views.lua_dissector import generate
+from fw1394.cli.main import main
 
 TSHARK = shutil.which("tshark")
 pytestmark = [
@@ -40,10 +44,23 @@ LUA_ONLY = {
 
 
 @pytest.fixture(scope="module")
-def registered(tmp_path_factory: pytest.TempPathFactory) -> set[str]:
+def lua_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
     lua = tmp_path_factory.mktemp("lua") / "fw1394.lua"
     lua.write_text(generate())
-    command = [TSHARK or "tshark", "-G", "fields", "-X", f"lua_script:{Path(lua)}"]
+    return lua
+
+
+@pytest.fixture(scope="module")
+def trace(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Acks in the pseudo-header (no ack records), busy acks, lost and corrupted packets."""
+    path = tmp_path_factory.mktemp("trace") / "bus.pcapng"
+    write_trace(str(path), simulate(600, Scenario(busy_every=7, lost_every=11, corrupt_every=13)))
+    return path
+
+
+@pytest.fixture(scope="module")
+def registered(lua_file: Path) -> set[str]:
+    command = [TSHARK or "tshark", "-G", "fields", "-X", f"lua_script:{lua_file}"]
     result = subprocess.run(command, capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stderr
     rows = [line.split("\t") for line in result.stdout.splitlines()]
@@ -69,3 +86,30 @@ def test_every_lua_field_is_a_display_filter_field_or_explained(registered: set[
         assert any(re.fullmatch(pattern, name) for pattern in LUA_ONLY), name
     for pattern in LUA_ONLY:
         assert any(re.fullmatch(pattern, name) for name in unfiltered), f"stale: {pattern}"
+
+
+@pytest.mark.parametrize(
+    "expression",
+    [
+        "fw1394.tcode == 4",
+        "fw1394.ack == 2",
+        "fw1394.ack == 16 || fw1394.ack == 4",
+        "fw1394.src_id == 0xffc4 && fw1394.tlabel < 10",
+        "fw1394.rcode == 0 && fw1394.tcode != 2",
+        "fw1394.offset == 0xfffff0000400",
+        "fw1394.ph.generation == 2 && fw1394.data_length >= 16",
+        "fw1394.dst_id == 0xffc0 || !(fw1394.quadlet_data)",
+        "fw1394.ph.speed == 2 && fw1394.ph.record_type == 0 && fw1394.ph.sender < 3",
+    ],
+)
+def test_one_filter_selects_the_same_frames_in_both(
+    expression: str, lua_file: Path, trace: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["dissect", str(trace), "-Y", expression, "--json"]) == 0
+    ours = [json.loads(line)["frame"] for line in capsys.readouterr().out.splitlines()]
+    command = [TSHARK or "tshark", "-X", f"lua_script:{lua_file}", "-r", str(trace)]
+    command += ["-Y", expression, "-T", "fields", "-e", "frame.number"]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    theirs = [int(n) for n in result.stdout.split()]
+    assert ours and ours == theirs
