@@ -516,8 +516,7 @@ function eth1394.dissector(tvb, pinfo, tree)
   else
     text = "not an Eth1394 datagram"
   end
-  if values then
-    show_nodes(pinfo, values)
+  if values then  -- Source and Destination keep the IP addresses; Info names the nodes
     add_links(tree, pinfo, track(pinfo, "async", values, tcode, nil), true)
   end
   pinfo.cols.info = text
