@@ -44,6 +44,15 @@ def test_outliers_are_counted_in_a_note_and_percentiles_marked() -> None:
         pyplot.close(figure)
 
 
+def test_a_single_straggler_is_named_once() -> None:
+    latency = np.concatenate([np.random.default_rng(4).normal(20.0, 2.0, 500), [30_600.0]])
+    figure = figure_for(latency)
+    try:
+        assert texts(figure.axes[0]) == ["1 off scale: 30.6 ms"]
+    finally:
+        pyplot.close(figure)
+
+
 def test_no_note_when_everything_fits() -> None:
     latency = np.random.default_rng(3).normal(20.0, 2.0, 2000)
     figure = figure_for(latency)

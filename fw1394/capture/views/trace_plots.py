@@ -65,10 +65,8 @@ def latency_figure(pyplot: Any, latency_us: np.ndarray, seen: int, title: str) -
         outside = int(np.count_nonzero(~inside))
         if outside:
             beyond = latency_us[~inside]
-            note = (
-                f"{outside} off scale: {format_us(float(beyond.min()))} "
-                f"to {format_us(float(beyond.max()))}"
-            )
+            low, top = format_us(float(beyond.min())), format_us(float(beyond.max()))
+            note = f"{outside} off scale: " + (top if low == top else f"{low} to {top}")
             axes.text(
                 0.98, 0.70, note, transform=axes.transAxes, ha="right", va="top", fontsize=9,
                 bbox={"boxstyle": "round", "facecolor": "#FFF3D6", "edgecolor": "#E69F00"},
