@@ -23,7 +23,14 @@ from fw1394.capture.formats.record import BusRecord, RecordType
 from fw1394.capture.formats.trace_writer import write_trace
 from fw1394.capture.views.lua_dissector import generate
 from fw1394.cli.main import main
-from fw1394.packets import BlockReadResponse, QuadletReadResponse, encode
+from fw1394.packets import (
+    AckCode,
+    BlockReadResponse,
+    QuadletReadRequest,
+    QuadletReadResponse,
+    WriteResponse,
+    encode,
+)
 from fw1394.transport.bus_port import BusPort
 from fw1394.transport.config import BusConfig
 from fw1394.transport.launch import LaunchedBus
@@ -234,3 +241,30 @@ def test_live_capture_piped_into_tshark(lua: Path, tmp_path: Path) -> None:
                       "-e", "frame.number", "-e", "fw1394.response_in")  # fmt: skip
     links = {tuple(int(n) for n in line.split("\t")) for line in requests.splitlines()}
     assert {(int(row[1]), int(row[0])) for row in answers} <= links
+
+
+def test_a_response_of_the_wrong_tcode_is_flagged_like_fw1394_flags_it(
+    lua: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    back = 0xFFC1
+    packets = [
+        encode(QuadletReadRequest(destination_id=0xFFC0, source_id=back, tlabel=5, offset=0x400)),
+        # A read answered with a write response:
+        encode(WriteResponse(destination_id=back, source_id=0xFFC0, tlabel=5)),
+        encode(QuadletReadRequest(destination_id=0xFFC0, source_id=back, tlabel=6, offset=0x404)),
+        encode(QuadletReadResponse(destination_id=back, source_id=0xFFC0, tlabel=6)),
+    ]
+    records = [
+        BusRecord(1000 * i, RecordType.async_packet, raw, ack=AckCode.ack_pending)
+        for i, raw in enumerate(packets)
+    ]
+    path = tmp_path / "mismatch.pcapng"
+    write_trace(str(path), records)
+    flagged = {
+        int(str(t["resp_frame"]))
+        for t in fw1394_json(capsys, str(path), "--transactions")
+        if "tcode_mismatch" in str(t["flags"])
+    }
+    frames = tshark_fields(lua, path, "fw1394.request_in", "_ws.expert.message")
+    assert flagged == {2} == with_message(frames, "does not answer the request")
+    assert frames[2]["fw1394.request_in"] == "1" and frames[4]["fw1394.request_in"] == "3"
