@@ -106,4 +106,7 @@ def _bar(stream: TextIO) -> Any:
         console=Console(file=stream),
         transient=True,
         auto_refresh=False,
+        # Output of the run goes where it was going (stdout stays the program's data).
+        redirect_stdout=False,
+        redirect_stderr=False,
     )

@@ -10,6 +10,8 @@ import re
 import struct
 import termios
 
+import pytest
+
 from fw1394.experiments.phase_progress import Progress
 
 
@@ -63,3 +65,14 @@ def test_a_terminal_gets_a_bar_then_the_summary_line() -> None:
     assert "bands at 31 and 62 us" in shown
     plain = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", shown)
     assert re.search(r"quadlet reads: done in \d+\.\d s; mean 40\.0 us", plain)
+
+
+def test_the_bar_leaves_stdout_alone(capfd: pytest.CaptureFixture[str]) -> None:
+    master, slave = pty.openpty()
+    with os.fdopen(slave, "w", encoding="utf-8") as stream:
+        progress = Progress(stream)
+        progress.start("block writes", 10)
+        print("a result line", flush=True)  # printed by the run while the bar shows
+        progress.finish()
+    os.close(master)
+    assert capfd.readouterr().out == "a result line\n"
