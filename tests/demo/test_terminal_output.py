@@ -1,4 +1,4 @@
-"""Terminal output through rich: the demo's status line and the CLI's tables.
+"""Terminal output through rich: the demo's status line, the CLI's tables, fuzz progress.
 
 On a terminal (a pseudo-terminal here) rich draws them; a pipe or file gets the
 plain text it always got.
@@ -7,6 +7,7 @@ plain text it always got.
 from __future__ import annotations
 
 import fcntl
+import io
 import os
 import pty
 import re
@@ -20,6 +21,7 @@ import pytest
 
 from fw1394.cli import demo
 from fw1394.cli.common import print_table
+from fw1394.fuzz.progress import Progress as FuzzProgress
 
 ESCAPE = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
 ROWS = [("node", "kind", "generation"), ("0", "snake2010", "3"), ("12", "qla1", "3")]
@@ -104,3 +106,28 @@ def test_rich_markup_in_a_cell_is_printed_as_is(monkeypatch: pytest.MonkeyPatch)
     shown = on_terminal(monkeypatch, "stdout", lambda: print_table(rows, indent=""))
     lines = [line.rstrip() for line in ESCAPE.sub("", shown).splitlines()]
     assert lines == ["offset  [bold]0x400[/bold]", "name    [config ROM+0x0]"]
+
+
+def fuzz_session(progress: FuzzProgress) -> None:
+    for cases in (0, 64, 128):
+        progress.update(cases, 1, force=True)
+    progress.close()
+
+
+def test_fuzz_progress_is_a_rich_bar_on_a_terminal(monkeypatch: pytest.MonkeyPatch) -> None:
+    shown = on_terminal(monkeypatch, "stderr", lambda: fuzz_session(FuzzProgress(256, None)))
+    plain = ESCAPE.sub("", shown)
+    assert "━" in shown and "#" not in plain  # rich's bar, not the hand-drawn one
+    assert re.search(r"50%\s+128 cases, \d+/s, 1 findings, \d+\.\d s", plain)
+
+
+def test_fuzz_progress_stays_plain_in_a_pipe() -> None:
+    stream = io.StringIO()
+    fuzz_session(FuzzProgress(256, None, stream))
+    frames = stream.getvalue().split("\r")[1:]
+    assert [frame.split("]")[0] for frame in frames] == [
+        "[" + "." * 24,
+        "[" + "#" * 6 + "." * 18,
+        "[" + "#" * 12 + "." * 12,
+    ]
+    assert frames[-1].endswith("\x1b[K\n") and "cases, " in frames[-1]
