@@ -42,10 +42,29 @@ def print_json_lines(objects: Iterable[dict[str, Any]]) -> None:
 
 
 def print_table(rows: Iterable[tuple[str, ...]], indent: str = "  ") -> None:
+    """Rows in aligned columns: plain text for pipes and files, rich's grid on a terminal
+    (which measures wide characters and wraps the last column to the window)."""
     rows = list(rows)
     if not rows:
+        return
+    if sys.stdout.isatty():
+        _print_grid(rows, indent)
         return
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
     for row in rows:
         cells = [cell.ljust(width) for cell, width in zip(row, widths, strict=True)]
         print(indent + "  ".join(cells).rstrip())
+
+
+def _print_grid(rows: list[tuple[str, ...]], indent: str) -> None:
+    from rich.console import Console
+    from rich.padding import Padding
+    from rich.table import Table
+    from rich.text import Text
+
+    grid = Table.grid(padding=(0, 2))
+    for _ in rows[0]:
+        grid.add_column()
+    for row in rows:
+        grid.add_row(*(Text(cell) for cell in row))  # cells are data, not rich markup
+    Console(file=sys.stdout, highlight=False).print(Padding(grid, (0, 0, 0, len(indent))))

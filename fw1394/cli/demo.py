@@ -55,14 +55,25 @@ def register(subparsers: Any) -> None:
 
 
 def _progress(result: Any, elapsed: float) -> None:
+    """The demo's status line on a terminal, redrawn in place, problems in colour."""
+    from rich.console import Console
+    from rich.control import Control
+    from rich.segment import ControlType
+    from rich.text import Text
+
     worst = max((abs(e) for e in result.final_errors), default=0.0)
-    line = (
-        f"\r  t={elapsed:5.2f} s  cycles={result.cycles:6d}  "
-        f"overruns={result.overruns:4d}  |error|max={worst:7.0f} counts  "
-        f"watchdog trips={result.watchdog_trips}"
+    line = Text.assemble(
+        f"  t={elapsed:5.2f} s  cycles={result.cycles:6d}  ",
+        (f"overruns={result.overruns:4d}", "bold red" if result.overruns else ""),
+        f"  |error|max={worst:7.0f} counts  ",
+        (
+            f"watchdog trips={result.watchdog_trips}",
+            "bold red" if result.watchdog_trips else "green",
+        ),
     )
-    sys.stderr.write(line)
-    sys.stderr.flush()
+    console = Console(file=sys.stderr, highlight=False)
+    console.control(Control.move_to_column(0), Control((ControlType.ERASE_IN_LINE, 2)))
+    console.print(line, end="", overflow="crop", no_wrap=True)
 
 
 def run(args: argparse.Namespace) -> int:

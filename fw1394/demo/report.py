@@ -59,8 +59,22 @@ def summary(result: DemoResult) -> dict[str, Any]:
     }
 
 
-def plot(result: DemoResult, path: Path) -> None:
-    """Commanded (dashed) and measured (solid) position of every axis over time."""
+#: Commanded and measured in colours apart in hue and lightness (the Okabe-Ito palette,
+#: readable with the common colour-vision deficiencies and in greyscale).
+COMMANDED_COLOUR = "#E69F00"
+MEASURED_COLOUR = "#0072B2"
+COMMANDED_LABEL = "commanded"
+MEASURED_LABEL = "measured"
+ERROR_TITLE = "tracking error (commanded - measured)"
+
+
+def axis_title(axis: int) -> str:
+    board, channel = ("actuation", axis + 1) if axis < 7 else ("Z-Theta", axis - 6)
+    return f"axis {axis + 1} ({board} ch {channel})"
+
+
+def figure_of(result: DemoResult) -> Any:
+    """Commanded and measured position per axis, and every axis's tracking error."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -68,31 +82,47 @@ def plot(result: DemoResult, path: Path) -> None:
 
     axes_count = len(result.commanded[0])
     columns = 4
-    rows = math.ceil(axes_count / columns)
+    rows = math.ceil((axes_count + 1) / columns)  # one more panel: the tracking error
     figure, grid = plt.subplots(rows, columns, figsize=(13, 2.4 * rows), sharex=True)
     flat = list(grid.flat)
+    errors = flat[axes_count]
     for axis in range(axes_count):
         panel = flat[axis]
         commanded = [c[axis] - ENCODER_MIDPOINT for c in result.commanded]
         measured = [m[axis] - ENCODER_MIDPOINT for m in result.measured]
-        panel.plot(result.times, commanded, "--", color="tab:gray", label="commanded")
-        panel.plot(result.times, measured, color="tab:blue", label="measured")
-        board = "actuation" if axis < 7 else "Z-Theta"
-        panel.set_title(
-            f"axis {axis + 1} ({board} ch {axis % 7 + 1 if axis < 7 else axis - 6})", fontsize=9
+        panel.plot(result.times, measured, color=MEASURED_COLOUR, lw=1.6, label=MEASURED_LABEL)
+        panel.plot(
+            result.times, commanded, "--", color=COMMANDED_COLOUR, lw=1.2, label=COMMANDED_LABEL
         )
+        error = [c - m for c, m in zip(commanded, measured, strict=True)]
+        errors.plot(result.times, error, lw=0.9, label=f"{axis + 1}")
+        panel.set_title(axis_title(axis), fontsize=9)
         panel.tick_params(labelsize=7)
-    for panel in flat[axes_count:]:
+    errors.axhline(0, color="black", lw=0.6)
+    errors.set_title(ERROR_TITLE, fontsize=9)
+    errors.tick_params(labelsize=7)
+    errors.set_ylabel("counts", fontsize=8)
+    errors.legend(title="axis", fontsize=5, title_fontsize=6, ncol=4, framealpha=0.5)
+    for panel in flat[axes_count + 1 :]:
         panel.axis("off")
     flat[0].legend(fontsize=7)
     for panel in flat[-columns:]:
         panel.set_xlabel("time (s)", fontsize=8)
+        panel.xaxis.set_tick_params(labelbottom=True)
     figure.suptitle(
-        f"fw1394 demo: 11 axes at {result.cycles / max(result.seconds, 1e-9):.0f} Hz over the "
-        "virtual 1394 bus (encoder counts from midpoint)",
+        f"fw1394 demo: {axes_count} axes at {result.cycles / max(result.seconds, 1e-9):.0f} Hz "
+        "over the virtual 1394 bus (encoder counts from midpoint)",
         fontsize=10,
     )
     figure.tight_layout()
+    return figure
+
+
+def plot(result: DemoResult, path: Path) -> None:
+    """Save :func:`figure_of` as a PNG."""
+    import matplotlib.pyplot as plt
+
+    figure = figure_of(result)
     figure.savefig(path, dpi=90)
     plt.close(figure)
 

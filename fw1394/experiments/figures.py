@@ -53,6 +53,8 @@ def write_plots(result: BenchResult, digest: dict[str, Any], directory: Path) ->
 
 
 def _quadlets(pyplot: Any, run: QuadletRun) -> Any:
+    from matplotlib.ticker import MaxNLocator
+
     figure, axes = pyplot.subplots(
         2, 2, figsize=(9, 6), sharey="row", gridspec_kw={"width_ratios": [3, 1]}
     )
@@ -92,6 +94,7 @@ def _quadlets(pyplot: Any, run: QuadletRun) -> Any:
                 fontsize=7,
             )
         histogram.set_xlabel("transactions")
+        histogram.xaxis.set_major_locator(MaxNLocator(integer=True))
     axes[1][0].set_xlabel("iteration")
     return figure
 
@@ -170,20 +173,40 @@ def _servo(pyplot: Any, servo: dict[str, Any]) -> Any:
 def _scale(pyplot: Any, points: list[ScalePoint]) -> Any:
     figure, axes = pyplot.subplots(figsize=(7, 4.5))
     boards = [point.boards for point in points]
+    drawn = []
     for q, style in ((50, "o-"), (90, "s--"), (99, "^:")):
         values = [float(np.percentile(point.reads, q)) for point in points]
         axes.plot(boards, values, style, label=f"p{q}")
+        drawn += values
     axes.set_xscale("log", base=2)
     axes.set_xticks(boards, [str(b) for b in boards])
     # Logarithmic: one scheduler stall in the p99 is 30 times the median.
     axes.set_yscale("log")
-    axes.yaxis.set_major_formatter("{x:.0f}")
-    axes.yaxis.set_minor_formatter("{x:.0f}")
+    log_ticks(axes.yaxis, min(drawn), max(drawn))
     axes.set_xlabel("boards on the bus (plus the host)")
     axes.set_ylabel("quadlet read time (µs, log scale)")
     axes.set_title("quadlet reads of board 0 as the bus grows", fontsize=9)
     axes.legend(fontsize=8)
     return figure
+
+
+def log_ticks(axis: Any, low: float, high: float) -> None:
+    """Label a log axis spanning ``low``..``high`` at 1-2-5 in every decade
+    (..., 50, 100, 200, 500, 1,000, ...), at every mantissa when it spans less than a
+    decade, and tick the rest without labels: readable over one decade or five."""
+    from matplotlib.ticker import LogLocator, NullFormatter, StrMethodFormatter
+
+    wide = high > 10 * low
+    labelled = LOG_LABELLED if wide else LOG_LABELLED + LOG_UNLABELLED
+    axis.set_major_locator(LogLocator(base=10, subs=labelled))
+    axis.set_major_formatter(StrMethodFormatter("{x:,.0f}"))
+    axis.set_minor_locator(LogLocator(base=10, subs=LOG_UNLABELLED if wide else ()))
+    axis.set_minor_formatter(NullFormatter())
+
+
+#: Mantissas labelled on a log axis, and the ones only ticked.
+LOG_LABELLED = (1.0, 2.0, 5.0)
+LOG_UNLABELLED = (3.0, 4.0, 6.0, 7.0, 8.0, 9.0)
 
 
 def _ceiling(values: np.ndarray) -> float:

@@ -1,10 +1,11 @@
-"""A one-line progress bar on stderr, redrawn a few times a second."""
+"""A one-line progress bar on stderr, redrawn a few times a second: rich's bar on a
+terminal, a plain line otherwise (``--progress`` into a pipe or a file)."""
 
 from __future__ import annotations
 
 import sys
 import time
-from typing import TextIO
+from typing import Any, TextIO
 
 _WIDTH = 24
 _INTERVAL = 0.2
@@ -22,6 +23,8 @@ class Progress:
         self._start = time.monotonic()
         self._next = 0.0
         self._drawn = False
+        bounded = bool(total or duration)
+        self._bar: Any = _bar(self.stream, bounded) if self.stream.isatty() else None
 
     def update(self, cases: int, findings: int, *, force: bool = False) -> None:
         now = time.monotonic()
@@ -34,6 +37,13 @@ class Progress:
             shares.append(cases / self.total)
         if self.duration:
             shares.append(elapsed / self.duration)
+        if self._bar is not None:
+            rate = cases / elapsed if elapsed > 0 else 0.0
+            text = f"{cases} cases, {rate:.0f}/s, {findings} findings, {elapsed:.1f} s"
+            share = min(max(shares), 1.0) if shares else None
+            self._bar.update(self._bar.task_ids[0], completed=share, description=text)
+            self._bar.refresh()
+            return
         bar = ""
         if shares:
             filled = int(_WIDTH * min(max(shares), 1.0))
@@ -45,6 +55,26 @@ class Progress:
         self._drawn = True
 
     def close(self) -> None:
-        if self._drawn:
+        if self._bar is not None:
+            self._bar.stop()  # the last state stays on screen
+        elif self._drawn:
             self.stream.write("\n")
             self.stream.flush()
+
+
+def _bar(stream: TextIO, bounded: bool) -> Any:
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn
+
+    bar = Progress(
+        BarColumn(),
+        TaskProgressColumn(),
+        TextColumn("{task.description}"),
+        console=Console(file=stream, highlight=False),
+        auto_refresh=False,
+        redirect_stdout=False,  # the campaign's output goes where it was going
+        redirect_stderr=False,
+    )
+    bar.add_task("", total=1.0 if bounded else None)  # no limit: a pulsing bar
+    bar.start()
+    return bar

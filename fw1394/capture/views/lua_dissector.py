@@ -17,9 +17,17 @@ from enum import IntEnum
 from construct import Struct
 
 from fw1394 import __version__
+from fw1394.capture.analysis.transaction_model import (
+    DEFAULT_EXPIRY_NS,
+    ERROR_ACKS,
+    NO_ACK,
+    RETRY_ACKS,
+    WRITES,
+)
 from fw1394.capture.formats import pseudo_header
 from fw1394.capture.formats.record import Direction, RecordType
 from fw1394.capture.views.lua_runtime import RUNTIME
+from fw1394.crc import crc32
 from fw1394.packets import LAYOUTS, PHY_CLASSES, PacketError
 from fw1394.packets.accessors import PHY_KIND_BITS, TCODE, FieldReader
 from fw1394.packets.ack import ACK_LAYOUT
@@ -33,8 +41,9 @@ from fw1394.packets.eth1394 import (
     UDP_PORT,
 )
 from fw1394.packets.fields import BitField
+from fw1394.packets.nodeid import BROADCAST_PHY
 from fw1394.packets.phy import PhyPacket, phy_class_of
-from fw1394.packets.tcodes import REQUEST_TCODES, RESPONSE_TCODES
+from fw1394.packets.tcodes import REQUEST_TCODES, RESPONSE_OF_REQUEST, RESPONSE_TCODES
 
 #: Field names as the Linux kernel's firewire tracepoints spell them.
 KERNEL_NAMES = {"destination_id": "dst_id", "source_id": "src_id"}
@@ -148,10 +157,45 @@ def _phy_layouts() -> tuple[str, str]:
 
 
 def _proto_field(key: str, abbrev: str, label: str, width: int, base: str, names: str) -> str:
-    kind = "uint8" if width <= 8 else "uint16" if width <= 16 else "uint32"
-    kind = "uint64" if width > 32 else kind
-    field = f'ProtoField.{kind}("{abbrev}", {_lua_string(label)}, {base}{names})'
+    if width > 32:
+        value_names = names.removeprefix(", ") or "nil"
+        field = (
+            f"wide_field({_lua_string(key)}, {_lua_string(abbrev)}, {_lua_string(label)}, "
+            f"{width}, {base}, {value_names})"
+        )
+    else:
+        kind = "uint8" if width <= 8 else "uint16" if width <= 16 else "uint32"
+        field = f'ProtoField.{kind}("{abbrev}", {_lua_string(label)}, {base}{names})'
     return f"F[{_lua_string(key)}] = {field}"
+
+
+#: Fields wider than 32 bits (the 48-bit offset) as wide as they are: Wireshark's Lua
+#: offers 40 to 56-bit fields only in some versions; elsewhere the field is 64-bit and
+#: its label shows the real width (WIDE tells the runtime which fields need that).
+WIDE_FIELD = """\
+local WIDE = {}
+local function wide_field(key, abbrev, label, width, display, names)
+  local bits = 8 * math.ceil(width / 8)
+  local ok, field = pcall(ProtoField.new, label, abbrev, ftypes["UINT" .. bits], names, display)
+  if ok and field then return field end
+  WIDE[key] = bits / 4
+  return ProtoField.uint64(abbrev, label, display, names)
+end"""
+
+
+def _crc_table() -> str:
+    """The byte-at-a-time table of the 1394 CRC-32, read off :func:`fw1394.crc.crc32`.
+
+    The CRC is affine in its message, so the register change one byte makes
+    from zero is the CRC of that byte minus (XOR) the CRC of a zero byte.
+    """
+    zero = crc32(b"\0")
+    return "{ [0] = " + ", ".join(f"{crc32(bytes([b])) ^ zero:#010x}" for b in range(256)) + " }"
+
+
+def _response_table() -> str:
+    items = ", ".join(f"[{int(req)}] = {int(resp)}" for req, resp in RESPONSE_OF_REQUEST.items())
+    return "{ " + items + " }"
 
 
 def _field_declarations() -> list[str]:
@@ -201,6 +245,15 @@ def generate() -> str:
         f"local ACK_CODE = {_flat_row(ACK_FIELDS['ack.code'], 'ack_code')}",
         f"local ACK_PARITY = {_flat_row(ACK_FIELDS['ack.parity'], 'ack_parity')}",
         f"local PHY_KIND_BITS = {_phy_kind_rows()}",
+        f"local RESPONSE_OF_REQUEST = {_response_table()}",
+        f"local RETRY_ACKS = {_lua_set(RETRY_ACKS.tolist())}",
+        f"local WRITE_TCODES = {_lua_set(WRITES.tolist())}",
+        f"local ERROR_ACKS = {_lua_set(ERROR_ACKS.tolist())}",
+        f"local ACK_COMPLETE = {int(AckCode.ack_complete)}",
+        f"local NO_ACK = {NO_ACK}",
+        f"local BROADCAST_PHY = {BROADCAST_PHY}",
+        f"local EXPIRY_SECONDS = {DEFAULT_EXPIRY_NS / 1e9!r}",
+        f"local CRC_TABLE = {_crc_table()}",
         f"local tcode_names = {_value_table(TCode)}",
         f"local rcode_names = {_value_table(RCode)}",
         f"local retry_names = {_value_table(Retry)}",
@@ -220,6 +273,7 @@ def generate() -> str:
         'local fw1394 = Proto("fw1394", "IEEE 1394 (fw1394 trace)")',
         'local eth1394 = Proto("eth1394", "JHU Eth1394 (IEEE 1394 over UDP)")',
         "local F = {}",
+        WIDE_FIELD,
         *_field_declarations(),
     ]
     return "\n".join(tables) + "\n" + RUNTIME

@@ -30,23 +30,59 @@ def require_matplotlib() -> Any:
     return pyplot
 
 
+#: On traces of more than FULL_RANGE_UP_TO transactions the histogram ends at
+#: RANGE_OVER_P99 times the 99th percentile, so a few stragglers (a bus reset, a
+#: descheduled process) do not squeeze the rest into one bar; a note counts them.
+RANGE_OVER_P99 = 3.0
+FULL_RANGE_UP_TO = 100
+PERCENTILES = ((50, "p50", "#D55E00", "--"), (99, "p99", "#009E73", ":"))
+
+
 def plot_latency(stats: Stats, path: str, title: str) -> int:
     """Histogram of transaction times (microseconds); returns how many were drawn."""
     pyplot = require_matplotlib()
-    latency = stats.sample.latency / 1000
+    figure = latency_figure(pyplot, stats.sample.latency / 1000, stats.sample.seen, title)
+    _save(figure, path, pyplot)
+    return len(stats.sample.latency)
+
+
+def latency_figure(pyplot: Any, latency_us: np.ndarray, seen: int, title: str) -> Any:
+    """The histogram with p50/p99 markers and a note of what lies past its right edge."""
+    from matplotlib.ticker import MaxNLocator
+
     figure, axes = pyplot.subplots(figsize=(8, 4.5))
-    if len(latency):
-        high = float(np.percentile(latency, 99.9)) if len(latency) > 100 else float(latency.max())
-        axes.hist(latency[latency <= high], bins=100, color="#3b6ea8")
+    shown = len(latency_us)
+    if shown:
+        high = float(latency_us.max())
+        if shown > FULL_RANGE_UP_TO:
+            high = min(high, RANGE_OVER_P99 * float(np.percentile(latency_us, 99)))
+        inside = latency_us <= high
+        axes.hist(latency_us[inside], bins=min(100, max(10, shown // 5)), color="#56B4E9")
+        for share, name, colour, style in PERCENTILES:
+            value = float(np.percentile(latency_us, share))
+            label = f"{name} {format_us(value)}"
+            axes.axvline(value, color=colour, linestyle=style, linewidth=1.5, label=label)
+        outside = int(np.count_nonzero(~inside))
+        if outside:
+            beyond = latency_us[~inside]
+            low, top = format_us(float(beyond.min())), format_us(float(beyond.max()))
+            note = f"{outside} off scale: " + (top if low == top else f"{low} to {top}")
+            axes.text(
+                0.98, 0.70, note, transform=axes.transAxes, ha="right", va="top", fontsize=9,
+                bbox={"boxstyle": "round", "facecolor": "#FFF3D6", "edgecolor": "#E69F00"},
+            )  # fmt: skip
+        axes.legend(loc="upper right", fontsize=9)
+    axes.yaxis.set_major_locator(MaxNLocator(integer=True))
     axes.set_xlabel("transaction time (µs)")
     axes.set_ylabel("transactions")
-    shown = len(latency)
-    sampled = (
-        "" if stats.sample.seen <= shown else f" (random sample of {shown} of {stats.sample.seen})"
-    )
-    axes.set_title(f"{title}: {stats.sample.seen} transactions{sampled}")
-    _save(figure, path, pyplot)
-    return shown
+    sampled = "" if seen <= shown else f" (random sample of {shown} of {seen})"
+    axes.set_title(f"{title}: {seen} transactions{sampled}")
+    return figure
+
+
+def format_us(value: float) -> str:
+    """A time in microseconds, in ms from 1000 µs on."""
+    return f"{value / 1000:.3g} ms" if value >= 1000 else f"{value:.3g} µs"
 
 
 def plot_size(stats: Stats, path: str, title: str) -> int:
