@@ -77,6 +77,10 @@ assert _FIELDS.size == HEADER_SIZE
 _MAX_PAYLOAD = MAX_UDP_PAYLOAD - HEADER_SIZE
 
 
+def _unsealed(frame: bytes) -> bytes:
+    return frame
+
+
 class Station:
     """One member of the bus ``config.name``."""
 
@@ -115,7 +119,9 @@ class Station:
         # one in verified; docs/virtual-bus.md, "Faults and threats".
         key = key_for(config)
         self._verifier = None if key is None else Verifier(key)
-        self._put = self.medium.send if key is None else self._sealed_sender(key)
+        # One sealer, one counter, whichever way a frame leaves.
+        self._seal: Callable[[bytes], bytes] = _unsealed if key is None else Sealer(key).seal
+        self._put = self.medium.send if key is None else self._sealed_sender(self._seal)
         self.trailer_size = 0 if key is None else FRAME_TRAILER_SIZE
         self._max_payload = _MAX_PAYLOAD - self.trailer_size
         self.medium.filter_as_member(self.info.member_id, None, drop_acks)
@@ -152,8 +158,8 @@ class Station:
         """Frames dropped for want of a valid MAC, or as replays; None: insecure bus."""
         return None if self._verifier is None else self._verifier.dropped
 
-    def _sealed_sender(self, key: bytes) -> Callable[[bytes], None]:
-        seal, send = Sealer(key).seal, self.medium.send
+    def _sealed_sender(self, seal: Callable[[bytes], bytes]) -> Callable[[bytes], None]:
+        send = self.medium.send
         return lambda frame: send(seal(frame))
 
     def changes(self) -> list[Change]:
@@ -197,10 +203,12 @@ class Station:
         if self._injector is None or kind not in _FAULTED:
             self._put(frame)
             return sequence
-        now = time.monotonic()
+        # Sealed once: a copy the medium makes (duplicate, delay) is the same datagram,
+        # so a keyed bus drops a second copy as a replay, as it would on a real network.
+        frame, now = self._seal(frame), time.monotonic()
         for when in self._injector.send_times(now):
             if when <= now:
-                self._put(frame)
+                self.medium.send(frame)
             else:
                 heapq.heappush(self._delayed, (when, sequence, frame))
                 self.wake_by = min(self.wake_by, when)
@@ -245,7 +253,7 @@ class Station:
         """Timers: heartbeats, beacons, leases, delayed frames."""
         now = time.monotonic() if now is None else now
         while self._delayed and self._delayed[0][0] <= now:
-            self._put(heapq.heappop(self._delayed)[2])
+            self.medium.send(heapq.heappop(self._delayed)[2])
         self.wake_by = self._delayed[0][0] if self._delayed else math.inf
         membership = self.membership
         # Only the coordinator acts on a death, so only it pays for looking.
