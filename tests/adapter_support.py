@@ -11,6 +11,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -43,7 +44,14 @@ def adapter_bus(tag: str, nodes: int, board: str = "memory") -> Iterator[Adapter
             bus.wait_members()
             if wait_adapter(config, bus.directory, 30.0) is None:
                 raise RuntimeError(f"the adapter of bus {config.name} did not come up")
-            yield AdapterBus(bus, runtime)
+            ready = AdapterBus(bus, runtime)
+            # A beacon sent before the adapter's join may still be on its way: tests
+            # compare generations, so they start from one the adapter is part of.
+            limit = time.monotonic() + 30.0
+            while ready.adapter_pid not in {m.pid for m in ready.view().members}:
+                if time.monotonic() > limit:
+                    raise RuntimeError(f"no beacon of bus {config.name} lists its adapter")
+            yield ready
         assert wait_until_gone(config.name) == [], f"processes of bus {config.name} outlived it"
     finally:
         shutil.rmtree(runtime, ignore_errors=True)
