@@ -11,7 +11,7 @@ iverilog and cocotb), run interleaved with ``inproc:snake2010`` on the same
 seeds as its baseline.
 
     python bench/fuzz.py [--cases 20000] [--remote-cases 5000] [--rtl-cases 1000]
-    python bench/fuzz.py --jobs-only [--jobs-cases 60000] [--jobs-rounds 5]
+    python bench/fuzz.py --jobs-only [--jobs-cases 200000] [--jobs-rounds 5]
     python bench/fuzz.py --rtl-only [--rtl-cases 1000]
 
 ``--jobs 2`` against one job: the same in-process campaign (the same total
@@ -109,7 +109,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", type=int, default=20_000, help="cases per in-process run")
     parser.add_argument("--remote-cases", type=int, default=5_000, help="cases per remote run")
-    parser.add_argument("--jobs-cases", type=int, default=60_000, help="cases per jobs run")
+    parser.add_argument("--jobs-cases", type=int, default=200_000, help="cases per jobs run")
     parser.add_argument("--jobs-rounds", type=int, default=3, help="interleaved jobs rounds")
     parser.add_argument("--jobs-only", action="store_true", help="only --jobs 2 against 1")
     parser.add_argument("--rtl-cases", type=int, default=1_000, help="cases per RTL run (0: skip)")
