@@ -23,7 +23,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from fw1394.boards.qla1.eth_server import LOOPBACK_INTERFACE
-from fw1394.boards.qla1.framing import extra_generation_and_echo, request_datagram
 from fw1394.packets import (
     AsyncPacket,
     BlockReadRequest,
@@ -41,6 +40,7 @@ from fw1394.packets.eth1394 import (
     HostVerdict,
     host_verdict,
 )
+from fw1394.packets.eth1394_fast import extra_generation_and_echo, request_datagram
 from fw1394.packets.fast import encode_packet
 from fw1394.transport.eth1394_addresses import (
     MULTICAST_FIRMWARE,

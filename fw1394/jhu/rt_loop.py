@@ -17,7 +17,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from fw1394.boards.qla1 import rt_blocks as rt
-from fw1394.boards.qla1.framing import request_datagram
 from fw1394.boards.qla1.regs import (
     CHANNELS,
     DAC_BOARD_ID_SHIFT,
@@ -31,6 +30,7 @@ from fw1394.jhu.client import HOST_SOURCE_ID, LOCAL_BUS_IDS, MAX_DATAGRAM, EthUd
 from fw1394.jhu.scan import BOARD_ID_MASK, Protocol, ScanResult
 from fw1394.packets import QuadletReadRequest
 from fw1394.packets.eth1394 import BROADCAST_NODE
+from fw1394.packets.eth1394_fast import request_datagram
 from fw1394.packets.fast import encode_packet
 
 SEQUENCE_LIMIT = 0xFFFF

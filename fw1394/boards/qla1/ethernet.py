@@ -35,7 +35,6 @@ from fw1394.boards.qla1.firewire import (
     hub_broadcast,
     is_hub_query,
 )
-from fw1394.boards.qla1.framing import extra_bytes, split_request
 from fw1394.boards.qla1.paths import ETHERNET_PATH, zero_crc_bytes
 from fw1394.boards.qla1.regs import (
     HUB_MEMORY_BASE,
@@ -60,6 +59,7 @@ from fw1394.packets.eth1394 import (
     Eth1394Error,
     ExtraBytes,
 )
+from fw1394.packets.eth1394_fast import extra_bytes, split_request
 from fw1394.packets.fast import decode_packet
 from fw1394.packets.nodeid import BROADCAST_PHY, LOCAL_BUS
 from fw1394.packets.nodeid import node_id as node_id_of

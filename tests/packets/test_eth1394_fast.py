@@ -1,4 +1,4 @@
-"""The hand-made Eth1394 framing of the real-time path equals the construct reference."""
+"""The hot-path Eth1394 framing (packets.eth1394_fast) equals the construct reference."""
 
 from __future__ import annotations
 
@@ -8,12 +8,6 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from fw1394.boards.qla1.framing import (
-    extra_bytes,
-    extra_generation_and_echo,
-    request_datagram,
-    split_request,
-)
 from fw1394.boards.qla1.paths import zero_crc_bytes
 from fw1394.packets import BlockReadResponse, QuadletReadResponse
 from fw1394.packets.eth1394 import (
@@ -25,6 +19,12 @@ from fw1394.packets.eth1394 import (
     build_request,
     build_response,
     parse_request,
+)
+from fw1394.packets.eth1394_fast import (
+    extra_bytes,
+    extra_generation_and_echo,
+    request_datagram,
+    split_request,
 )
 from fw1394.packets.fast import encode_packet
 
