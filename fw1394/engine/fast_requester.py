@@ -26,7 +26,7 @@ from fw1394.engine.requester import Requester
 from fw1394.engine.transaction import AWAIT_ACK, same_node
 from fw1394.packets import AckCode, AsyncPacket, BlockReadResponse, QuadletReadResponse
 from fw1394.packets.ack import ACK_BYTES
-from fw1394.packets.fast import block_crc
+from fw1394.packets.fast import block_crc, data_block_source
 from fw1394.packets.frame import ACK_FRAME_SIZE
 
 _PENDING = ACK_BYTES[AckCode.ack_pending]
@@ -52,17 +52,7 @@ def _reader(cls: type[AsyncPacket]) -> Reader:
         "        return None",
     ]
     if layout.has_data:
-        lines += [
-            f"    data_length = {expressions['data_length']}",
-            f"    end = {size} + data_length + (-data_length & 3)",
-            "    if len(raw) != end + 4:",
-            "        return None",
-            f"    data = raw[{size}:end]",
-            "    if from_bytes(raw[end:]) != block_crc(data):",
-            "        return None",
-            f"    if end != {size} + data_length:",
-            "        data = data[:data_length]",
-        ]
+        lines += data_block_source(size, expressions["data_length"])
     else:
         lines.append(f"    data = to_bytes({expressions['quadlet_data']}, 4)")
     names = ("destination_id", "source_id", "tlabel")

@@ -40,7 +40,7 @@ from fw1394.packets import (
     WriteResponse,
 )
 from fw1394.packets.ack import ACK_BYTES
-from fw1394.packets.fast import block_crc, builder, decode_sound
+from fw1394.packets.fast import block_crc, builder, data_block_source, decode_sound
 from fw1394.packets.frame import ACK_FRAME_FORMAT
 from fw1394.packets.layouts import TCODE_BYTE, TCODE_SHIFT
 from fw1394.packets.nodeid import LOCAL_BUS
@@ -157,17 +157,7 @@ def _handler(
         "        return None",
     ]
     if layout.has_data:
-        lines += [
-            f"    data_length = {expressions['data_length']}",
-            f"    end = {size} + data_length + (-data_length & 3)",
-            "    if len(raw) != end + 4:",
-            "        return None",
-            f"    data = raw[{size}:end]",
-            "    if from_bytes(raw[end:]) != block_crc(data):",
-            "        return None",
-            f"    if end != {size} + data_length:",
-            "        data = data[:data_length]",
-        ]
+        lines += data_block_source(size, expressions["data_length"])
     lines += [
         # The board's clock reads the time the request came, as in the reference.
         "    ticks = int(now * TICKS)",

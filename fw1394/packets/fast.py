@@ -74,6 +74,28 @@ if _crc32_by_zlib(b"123456789") != CHECK_VALUE:  # pragma: no cover - a broken z
     _ZLIB_FROM = 1 << 62
 
 
+def data_block_source(header_size: int, data_length: str) -> list[str]:
+    """Generated lines that take a block packet's data block from ``raw``.
+
+    ``data_length`` is the expression of the header's length field. The lines
+    return None from the generated function when the packet is not exactly
+    header, padded data and data CRC, or the CRC is wrong; else they leave the
+    data (padding cut off) in ``data``. The function's namespace needs
+    ``block_crc`` and ``from_bytes`` (``int.from_bytes``).
+    """
+    return [
+        f"    data_length = {data_length}",
+        f"    end = {header_size} + data_length + (-data_length & 3)",
+        "    if len(raw) != end + 4:",
+        "        return None",
+        f"    data = raw[{header_size}:end]",
+        "    if from_bytes(raw[end:]) != block_crc(data):",
+        "        return None",
+        f"    if end != {header_size} + data_length:",
+        "        data = data[:data_length]",
+    ]
+
+
 # -- whole packets, for the bus's hot path ---------------------------------------------
 _QUADLET = struct.Struct(">I")
 _CLASSES: dict[int, type[AsyncPacket]] = {int(t): c for t, c in ASYNC_CLASSES.items()}
