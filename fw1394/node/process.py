@@ -9,11 +9,9 @@ bus tenure); a split response is a subaction of its own.
 
 from __future__ import annotations
 
-import signal
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from types import FrameType
 
 from fw1394.engine import THESIS_FPGA, Responder, ResponderPolicy
 from fw1394.engine.defects import DefectiveResponder
@@ -24,6 +22,7 @@ from fw1394.transport.faults import FaultConfig
 from fw1394.transport.idle import IdleStrategy
 from fw1394.transport.link import BusRefusedError, ResponderLink
 from fw1394.transport.membership import BusReset, Timing
+from fw1394.transport.procs import run_until_signalled
 from fw1394.transport.station import Station
 from fw1394.transport.wire import NO_BOARD, FrameTooLarge
 
@@ -113,12 +112,4 @@ def run_node(
     node.on_reset = on_reset
     node.on_warning = on_warning
 
-    def stop(signum: int, frame: FrameType | None) -> None:
-        node.stop()
-
-    previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        node.run()
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
+    run_until_signalled(node.run, node.stop)

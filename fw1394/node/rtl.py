@@ -23,6 +23,7 @@ from fw1394.rtl.portmap import load, split_spec
 from fw1394.rtl.simulation import Simulation, SimulationError
 from fw1394.transport.link import ResponderLink
 from fw1394.transport.membership import BusReset
+from fw1394.transport.procs import run_until_signalled
 from fw1394.transport.station import Station
 
 __all__ = ["BusRefusedError", "RtlResponder", "check_spec", "run_rtl_node"]
@@ -92,8 +93,6 @@ def run_rtl_node(
     on_warning: Callable[[str], None] | None = None,
 ) -> None:
     """Run the design ``rtl:PORTMAP`` as a bus node until SIGINT or SIGTERM."""
-    import signal
-    from types import FrameType
 
     spec, waves = split_spec(board.removeprefix("rtl:"))
     portmap = load(spec)
@@ -119,15 +118,7 @@ def run_rtl_node(
         node.on_reset = on_reset
         node.on_warning = on_warning
 
-        def stop(signum: int, frame: FrameType | None) -> None:
-            node.stop()
-
-        previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
-        try:
-            node.run()
-        finally:
-            for sig, handler in previous.items():
-                signal.signal(sig, handler)
+        run_until_signalled(node.run, node.stop)
     except SimulationError as error:
         raise OSError(f"the simulation failed: {error}") from None
     finally:

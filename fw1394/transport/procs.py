@@ -7,6 +7,8 @@ import ctypes.util
 import os
 import signal
 import zlib
+from collections.abc import Callable
+from types import FrameType
 
 PR_SET_PDEATHSIG = 1
 
@@ -45,3 +47,18 @@ def die_with_parent(parent_pid: int, sig: int = signal.SIGTERM) -> None:
     libc.prctl(PR_SET_PDEATHSIG, sig, 0, 0, 0)
     if os.getppid() != parent_pid:
         os.kill(os.getpid(), sig)
+
+
+def run_until_signalled(run: Callable[[], None], stop: Callable[[], None]) -> None:
+    """``run()`` in the foreground; SIGINT or SIGTERM calls ``stop()`` (which makes it
+    return), and the previous handlers come back afterwards."""
+
+    def on_signal(signum: int, frame: FrameType | None) -> None:
+        stop()
+
+    previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        run()
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)

@@ -21,12 +21,10 @@ firmware 9 only it is cabled to the host.
 from __future__ import annotations
 
 import select
-import signal
 import socket
 import sys
 import time
 from dataclasses import dataclass
-from types import FrameType
 
 from fw1394.boards.qla1.board import BOARD_DEFECTS, Qla1Board
 from fw1394.boards.qla1.eth_server import (
@@ -63,6 +61,7 @@ from fw1394.transport.eth1394_addresses import (
 from fw1394.transport.faults import FaultConfig
 from fw1394.transport.link import ACK, ASYNC_PACKET, ResponderLink
 from fw1394.transport.membership import BusReset, Timing
+from fw1394.transport.procs import run_until_signalled
 from fw1394.transport.station import Station
 from fw1394.transport.wire import FrameHeader, FrameKind, parse_ack
 
@@ -305,15 +304,7 @@ class Qla1NodeProgram:
                 file=sys.stderr,
             )
 
-        def stop(signum: int, frame: FrameType | None) -> None:
-            node.stop()
-
-        previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
-        try:
-            node.run()
-        finally:
-            for sig, handler in previous.items():
-                signal.signal(sig, handler)
+        run_until_signalled(node.run, node.stop)
 
 
 QLA1_NODE = Qla1NodeProgram()
