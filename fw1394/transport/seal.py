@@ -22,7 +22,12 @@ from dataclasses import dataclass
 from itertools import count
 from pathlib import Path
 
-from fw1394.packets.frame import FRAME_COUNTER_FORMAT, FRAME_MAC_SIZE, FRAME_TRAILER_SIZE
+from fw1394.packets.frame import (
+    FRAME_COUNTER_FORMAT,
+    FRAME_HEADER_SPANS,
+    FRAME_MAC_SIZE,
+    FRAME_TRAILER_SIZE,
+)
 from fw1394.transport.config import BusConfig
 from fw1394.transport.runtime import KEY_FILE, bus_dir
 from fw1394.transport.wire import HEADER_SIZE, SENDER_OFFSET
@@ -37,7 +42,8 @@ REPLAY_WINDOW = 64
 #: Senders remembered; the oldest is forgotten beyond this (a MAC'd frame is needed
 #: to make an entry, so only members can fill it).
 MAX_SENDERS = 4096
-_SENDER = struct.Struct(">I")
+#: The sender field of the frame header, as wide as the layout makes it.
+_SENDER = struct.Struct(">" + {2: "H", 4: "I"}[FRAME_HEADER_SPANS["sender"][1]])
 _COUNTER = FRAME_COUNTER_FORMAT
 _WINDOW_MASK = (1 << REPLAY_WINDOW) - 1
 
