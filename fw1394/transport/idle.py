@@ -17,10 +17,11 @@ Strategies (``docs/performance.md`` gives their CPU cost):
   received a frame (250 µs unless given: ``adaptive:100``), then block. Between
   polls the member yields its CPU (``sched_yield``), so that members sharing a
   core, such as four processes on two cores in ``fw1394 demo``, let the one with
-  work run instead of starving it. And it polls only while the machine has a
-  core to spare (fewer runnable tasks than CPUs, looked up in ``/proc/loadavg``
-  every 50 ms): on a machine whose cores are all busy, polling only takes CPU
-  from the process that is to answer. An idle bus costs nothing; a busy one
+  work run instead of starving it. And it polls only while every runnable task
+  has a core (no more runnable tasks than CPUs, this one included, looked up in
+  ``/proc/loadavg`` every 50 ms): when tasks wait for a core, polling only takes
+  CPU from the process that is to answer. Two members polling for each other
+  on two cores is the case the strategy exists for, so it counts as enough. An idle bus costs nothing; a busy one
   costs at most the window's CPU after each burst.
 
 ``FW1394_IDLE`` (``block``, ``spin``, ``adaptive`` or ``adaptive:MICROSECONDS``)
@@ -40,7 +41,7 @@ ENVIRONMENT = "FW1394_IDLE"
 #: How long an adaptive member keeps polling after traffic.
 DEFAULT_WINDOW = 250e-6
 _MSG_DONTWAIT = socket.MSG_DONTWAIT
-#: How often an adaptive member looks whether the machine has a core to spare.
+#: How often an adaptive member looks whether every runnable task has a core.
 CHECK_EVERY = 0.05
 _LOADAVG = "/proc/loadavg"
 _NAMES = ("block", "spin", "adaptive")
@@ -110,7 +111,7 @@ class Waiter:
         "_last",
         "_poll",
         "_recv",
-        "_spare",
+        "_enough",
         "_yield",
         "sock",
         "strategy",
@@ -127,8 +128,8 @@ class Waiter:
         #: When this member last sent or received (monotonic seconds).
         self._last = -math.inf
         self._cpus = os.cpu_count() or 1
-        #: Whether the machine had a core to spare when last looked (at ``_checked``).
-        self._spare = True
+        #: Whether every runnable task had a core when last looked (at ``_checked``).
+        self._enough = True
         self._checked = -math.inf
 
     def traffic(self) -> None:
@@ -146,8 +147,8 @@ class Waiter:
                 until = self._last + window
                 if now < until and now - self._checked >= CHECK_EVERY:
                     self._checked = now
-                    self._spare = spare_core(self._cpus)
-                if not self._spare:
+                    self._enough = cores_enough(self._cpus)
+                if not self._enough:
                     until = now
             if now < until:
                 recv, pause = self._recv, self._yield
@@ -172,8 +173,12 @@ class Waiter:
         return data
 
 
-def spare_core(cpus: int) -> bool:
-    """Whether fewer tasks are runnable than there are CPUs (this one included).
+def cores_enough(cpus: int) -> bool:
+    """Whether no more tasks are runnable than there are CPUs (this one included).
+
+    The caller is itself runnable, so one CPU per runnable task means nobody
+    waits: with ``<`` two members polling for each other on a two-CPU machine
+    would each see the other and stop polling exactly when it pays.
 
     Linux's ``/proc/loadavg`` counts the runnable tasks right now (its fourth
     field, ``running/total``); elsewhere the answer is always yes.
@@ -183,7 +188,7 @@ def spare_core(cpus: int) -> bool:
             running = int(file.read().split()[3].split(b"/")[0])
     except (OSError, ValueError, IndexError):
         return True
-    return running < cpus
+    return running <= cpus
 
 
 def _no_yield() -> None:  # pragma: no cover - every POSIX system has sched_yield
