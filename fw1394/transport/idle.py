@@ -21,8 +21,9 @@ Strategies (``docs/performance.md`` gives their CPU cost):
   has a core (no more runnable tasks than CPUs, this one included, looked up in
   ``/proc/loadavg`` every 50 ms): when tasks wait for a core, polling only takes
   CPU from the process that is to answer. Two members polling for each other
-  on two cores is the case the strategy exists for, so it counts as enough. An idle bus costs nothing; a busy one
-  costs at most the window's CPU after each burst.
+  on two cores is the case the strategy exists for, so it counts as enough.
+  An idle bus costs nothing; a busy one costs at most the window's CPU after
+  each burst.
 
 ``FW1394_IDLE`` (``block``, ``spin``, ``adaptive`` or ``adaptive:MICROSECONDS``)
 sets the strategy of every member started without an explicit one.
@@ -108,10 +109,10 @@ class Waiter:
     __slots__ = (
         "_checked",
         "_cpus",
+        "_enough",
         "_last",
         "_poll",
         "_recv",
-        "_enough",
         "_yield",
         "sock",
         "strategy",

@@ -22,6 +22,7 @@ MAX_FRAME = 65_535
 IP_MULTICAST_ALL = 49
 SO_TIMESTAMPNS = 35
 _TIMESPEC = struct.Struct("@qq")
+_DONTWAIT = socket.MSG_DONTWAIT
 
 
 class Medium:
@@ -105,10 +106,13 @@ class Medium:
         except (BlockingIOError, InterruptedError):
             return None
 
-    def receive_stamped(self) -> tuple[bytes, int] | None:
-        """The next frame and its kernel arrival time in ns (needs :meth:`filter_as_tap`)."""
+    def receive_stamped(self, wait: bool = True) -> tuple[bytes, int] | None:
+        """The next frame and its kernel arrival time in ns (needs :meth:`filter_as_tap`).
+
+        ``wait`` False: only a frame already queued, None at once if there is none.
+        """
         try:
-            data, ancillary, _, _ = self.sock.recvmsg(MAX_FRAME, 64)
+            data, ancillary, _, _ = self.sock.recvmsg(MAX_FRAME, 64, 0 if wait else _DONTWAIT)
         except (BlockingIOError, InterruptedError):
             return None
         for level, kind, value in ancillary:

@@ -17,9 +17,9 @@ from fw1394.transport.idle import (
     SPIN,
     IdleStrategy,
     Waiter,
+    cores_enough,
     default_idle,
     parse_idle,
-    cores_enough,
 )
 
 
