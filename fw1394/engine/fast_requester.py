@@ -13,6 +13,11 @@ those of the reference.
 Anything else (busy and error acks, error rcodes, a response that does not
 match, a split response, a duplicate) is declined before anything changes
 (``None``) and goes the general way. Tests hold both paths equal with hypothesis.
+
+:func:`concatenated_data` is the check of a read's ack frame on its own, and
+:class:`Solo` keeps a lone transaction out of the requester's records while it
+goes the common way: together they let a blocking caller
+(:mod:`fw1394.transport.express`) run a whole transaction on flat values.
 """
 
 from __future__ import annotations
@@ -23,11 +28,12 @@ from typing import Any
 from fw1394.crc import crc32
 from fw1394.engine.events import ReadCompleted, WriteCompleted
 from fw1394.engine.requester import Requester
-from fw1394.engine.transaction import AWAIT_ACK, same_node
-from fw1394.packets import AckCode, AsyncPacket, BlockReadResponse, QuadletReadResponse
+from fw1394.engine.transaction import AWAIT_ACK, Transaction, same_node
+from fw1394.packets import AckCode, AsyncPacket, BlockReadResponse, QuadletReadResponse, Request
 from fw1394.packets.ack import ACK_BYTES
 from fw1394.packets.fast import block_crc, data_block_source
 from fw1394.packets.frame import ACK_FRAME_SIZE
+from fw1394.packets.nodeid import BROADCAST_PHY
 
 _PENDING = ACK_BYTES[AckCode.ack_pending]
 _COMPLETE = ACK_BYTES[AckCode.ack_complete]
@@ -76,6 +82,44 @@ _READERS: dict[int, tuple[type[AsyncPacket], Reader]] = {
 _TCODE_BYTE = 3
 
 
+def concatenated_data(
+    payload: bytes,
+    sender_phy: int,
+    response_class: type[AsyncPacket],
+    destination_id: int,
+    length: int,
+    me: int,
+) -> bytes | None:
+    """The data of a read that ack frame ``payload`` ends, or None.
+
+    ``payload`` from ``sender_phy`` must be ack_pending with a sound
+    ``response_class`` response behind it, resp_complete, with the ack's label,
+    addressed to node ``me`` by ``destination_id``, the transaction's
+    destination, with ``length`` bytes of data (-1: any); what
+    :func:`~fw1394.engine.transaction.mismatch_of` and the rcode check of the
+    general path ask of a response.
+    """
+    if payload[0] != _PENDING or len(payload) <= ACK_FRAME_SIZE + _TCODE_BYTE:
+        return None
+    response = payload[ACK_FRAME_SIZE:]
+    kind = _READERS.get(response[_TCODE_BYTE] >> 4)
+    if kind is None or kind[0] is not response_class:
+        return None
+    fields = kind[1](response)
+    if fields is None:
+        return None
+    destination, source, label, data = fields
+    if label != payload[1] or (source ^ sender_phy) & 0x3F:
+        return None  # the response names another transaction than the ack
+    if destination != me and not same_node(destination, me):
+        return None
+    if source != destination_id and not same_node(source, destination_id):
+        return None
+    if length >= 0 and len(data) != length:
+        return None
+    return data
+
+
 class FastEnds:
     """The common ends of ``requester``'s transactions; see the module docstring."""
 
@@ -93,38 +137,86 @@ class FastEnds:
         if size < ACK_FRAME_SIZE:
             return None
         requester = self.requester
-        byte, tlabel = payload[0], payload[1]
+        tlabel = payload[1]
         transaction = requester._by_label.get((sender_phy & 0x3F) << 6 | tlabel)
         if transaction is None or transaction.state != AWAIT_ACK:
             return None
         if size == ACK_FRAME_SIZE:
-            if byte != _COMPLETE or transaction.expects_response:
+            if payload[0] != _COMPLETE or transaction.expects_response:
                 return None
             done = WriteCompleted(transaction.tid)
             requester._end(transaction, done, now, requester._answered_hold())
             return -1
-        if byte != _PENDING or size <= ACK_FRAME_SIZE + _TCODE_BYTE:
-            return None
-        response = payload[ACK_FRAME_SIZE:]
-        kind = _READERS.get(response[_TCODE_BYTE] >> 4)
-        if kind is None or kind[0] is not transaction.response_class:
-            return None
-        fields = kind[1](response)
-        if fields is None:
-            return None
-        destination, source, label, data = fields
-        me = requester._node_id
-        if label != tlabel or (source ^ sender_phy) & 0x3F:
-            return None  # the response names another transaction than the ack
-        if destination != me and not same_node(destination, me):
-            return None
-        expected = transaction.destination_id
-        if source != expected and not same_node(source, expected):
-            return None
-        if transaction.length >= 0 and len(data) != transaction.length:
+        data = concatenated_data(
+            payload,
+            sender_phy,
+            transaction.response_class,
+            transaction.destination_id,
+            transaction.length,
+            requester._node_id,
+        )
+        if data is None:
             return None
         # The general path moves the transaction to awaiting its response first;
         # ending it at once leaves nothing of that step behind.
         event = ReadCompleted(transaction.tid, data)
         requester._end(transaction, event, now, requester._answered_hold())
+        return tlabel
+
+
+class Solo:
+    """One transaction at a time on flat values, kept out of the requester while it goes well.
+
+    A blocking caller with nothing else outstanding needs none of the requester's
+    records: :meth:`begin` takes the label and the transaction id the general
+    path would take; :meth:`finish` ends the transaction as completed, leaving
+    the requester as the general path leaves it (labels, holds, the last holder
+    of the label, no events). Anything else, :meth:`adopt` makes the transaction
+    one of the requester's own, in flight as if started the general way, and
+    the general path goes on from there.
+    """
+
+    __slots__ = ("key", "label", "requester", "started", "tid")
+
+    def __init__(self, requester: Requester) -> None:
+        self.requester = requester
+        self.tid = self.key = self.label = 0
+        self.started = 0.0
+
+    def begin(self, destination_id: int, now: float) -> int:
+        """The label of a transaction to ``destination_id`` sent at ``now``; -1: none.
+
+        -1 when the requester has anything outstanding, when every label to the
+        destination is held, or for a broadcast: the general path it is then.
+        """
+        requester = self.requester
+        key = destination_id & 0x3F
+        if requester._transactions or key == BROADCAST_PHY:
+            return -1
+        label = requester._labels.take(key, now)
+        if label is None:
+            return -1
+        self.tid = requester._next_tid
+        requester._next_tid = self.tid + 1
+        self.key, self.label, self.started = key, label, now
         return label
+
+    def finish(self, now: float) -> None:
+        """The transaction got its answer and completed at ``now``."""
+        requester = self.requester
+        requester._ended[self.key << 6 | self.label] = self.tid
+        hold = requester._answered_hold()
+        requester._labels.release(self.key, self.label, now + hold if hold > 0 else None)
+
+    def adopt(self, request: Request, length: int, expects_response: bool) -> int:
+        """Make the transaction, sent as ``request``, the requester's; its id.
+
+        ``length`` and ``expects_response`` are what the requester's start of that
+        kind gives it: the expected data length (-1: not checked), and whether it
+        ends with a response rather than an ack.
+        """
+        requester = self.requester
+        transaction = Transaction(self.tid, self.key, self.label, request, length, expects_response)
+        requester._transactions[self.tid] = transaction
+        requester._await_ack(transaction, self.started)
+        return self.tid

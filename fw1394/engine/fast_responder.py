@@ -19,7 +19,6 @@ comes, so its answer is the reference's own :class:`Reply` for it (built by
 
 from __future__ import annotations
 
-import re
 import struct
 from collections.abc import Callable
 from dataclasses import MISSING, fields
@@ -40,7 +39,7 @@ from fw1394.packets import (
     WriteResponse,
 )
 from fw1394.packets.ack import ACK_BYTES
-from fw1394.packets.fast import block_crc, builder, data_block_source, decode_sound
+from fw1394.packets.fast import block_crc, builder, data_block_source, decode_sound, substitute
 from fw1394.packets.frame import ACK_FRAME_FORMAT
 from fw1394.packets.layouts import TCODE_BYTE, TCODE_SHIFT
 from fw1394.packets.nodeid import LOCAL_BUS
@@ -59,7 +58,6 @@ _KINDS: dict[type[AsyncPacket], tuple[type[AsyncPacket], str, bool]] = {
 }
 _IMMEDIATE = (Delivery.concatenated, Delivery.unified)
 _QUADLET = struct.Struct(">I")
-_WORD = re.compile(r"[A-Za-z_][A-Za-z_0-9]*")
 
 
 class FastResponder:
@@ -221,7 +219,7 @@ def _response_lines(response: type[AsyncPacket], namespace: dict[str, Any], read
             "        return Reply(ack_code, build(requester, tlabel, me, value), concatenated)",
         ]
     quadlets = ", ".join(
-        _substitute(expression, values) for expression in header.quadlet_expressions()
+        substitute(expression, values) for expression in header.quadlet_expressions()
     )
     lines.append(f"    head = pack_header({quadlets})")
     if read == "read_block":
@@ -234,15 +232,6 @@ def _response_lines(response: type[AsyncPacket], namespace: dict[str, Any], read
     else:
         lines.append("    return b''.join((ack, head, quadlet(crc(head))))")
     return lines
-
-
-def _substitute(expression: str, values: dict[str, str]) -> str:
-    # Each field name in a quadlet expression becomes its value, parenthesised.
-    def value(match: re.Match[str]) -> str:
-        name = match[0]
-        return f"({values[name]})" if name in values else name
-
-    return _WORD.sub(value, expression)
 
 
 def _compile(lines: list[str], namespace: dict[str, Any]) -> Handler:

@@ -247,8 +247,12 @@ class Requester:
             del self._transactions[transaction.tid]
             self._events.append(WriteCompleted(transaction.tid))
             return
-        self._by_label[key << 6 | label] = transaction
-        self._wait(transaction, AWAIT_ACK, now + self.ack_timeout)
+        self._await_ack(transaction, now)
+
+    def _await_ack(self, transaction: Transaction, sent: float) -> None:
+        """``transaction`` went out at ``sent`` for the first time: its label names it now."""
+        self._by_label[transaction.key << 6 | transaction.label] = transaction
+        self._wait(transaction, AWAIT_ACK, sent + self.ack_timeout)
 
     def _wait_for_label(self, head: Transaction) -> None:
         """Set the timer of the first waiting transaction to a destination."""

@@ -13,6 +13,7 @@ a transaction.
 
 from __future__ import annotations
 
+import re
 import struct
 import zlib
 from collections.abc import Callable
@@ -271,3 +272,72 @@ def builder(cls: type[P], *names: str) -> Callable[..., P]:
     lines.append("    return packet")
     build: Callable[..., P] = _compile(lines, namespace, "build")
     return build
+
+
+# -- wire bytes straight from field values ---------------------------------------------
+_WORD = re.compile(r"[A-Za-z_][A-Za-z_0-9]*")
+
+
+def substitute(expression: str, values: dict[str, str]) -> str:
+    """``expression`` with each name in ``values`` replaced by its value, parenthesised.
+
+    For the generated packers: a quadlet expression of
+    :meth:`fw1394.packets.fields.Quadlets.quadlet_expressions` with some fields
+    fixed, which the compiler then folds into constants.
+    """
+
+    def value(match: re.Match[str]) -> str:
+        name = match[0]
+        return f"({values[name]})" if name in values else name
+
+    return _WORD.sub(value, expression)
+
+
+def wire_builder(cls: type[AsyncPacket], *names: str) -> Callable[..., bytes]:
+    """A function making the wire bytes of a ``cls`` packet from the values of ``names``.
+
+    The result equals ``encode_packet(cls(**dict(zip(names, values))))``: every
+    other field takes its default, a data block's ``data_length`` is the length
+    of ``data``, and both CRCs are computed. No packet object is made. As with
+    :func:`builder`, values are not checked: each must fit its field (the
+    requester has checked them when it calls this).
+    """
+    layout = cls.LAYOUT
+    known = {f.name: f for f in fields(cls)}
+    unknown = set(names) - set(layout.fields) - ({"data"} if layout.has_data else set())
+    if unknown:
+        raise TypeError(f"{cls.__name__}: cannot build the wire bytes from {sorted(unknown)}")
+    if layout.has_data and "data_length" in names:
+        raise TypeError(f"{cls.__name__}: data_length is the length of data")
+    values = {"tcode": repr(int(layout.tcode))}
+    for name in layout.fields:
+        if name in names:
+            continue
+        if name == "data_length" and layout.has_data:
+            values[name] = "len(data)" if "data" in names else "0"
+            continue
+        default = known[name].default
+        if not isinstance(default, int):
+            raise TypeError(f"{cls.__name__}.{name} has no default: name it")
+        values[name] = repr(int(default))
+    header = layout.header
+    quadlets = ", ".join(substitute(e, values) for e in header.quadlet_expressions())
+    lines = [f"def wire({', '.join(names)}):", f"    head = pack({quadlets})"]
+    if not layout.has_data:
+        lines.append("    return head + quadlet(crc(head))")
+    else:
+        if "data" not in names:
+            lines.append("    data = b''")
+        lines += [
+            "    if len(data) & 3:",
+            "        data = data + bytes(4 - (len(data) & 3))",
+            "    return b''.join((head, quadlet(crc(head)), data, quadlet(block_crc(data))))",
+        ]
+    namespace: dict[str, Any] = {
+        "pack": header.format.pack,
+        "quadlet": _QUADLET.pack,
+        "crc": crc32,
+        "block_crc": block_crc,
+    }
+    wire: Callable[..., bytes] = _compile(lines, namespace, "wire")
+    return wire

@@ -182,7 +182,7 @@ class AdapterHost(BusHost):
 
     def send_raw(self, destination: int, packet: bytes) -> int:
         """Put ``packet`` on the bus to physical ID ``destination``; its frame's sequence."""
-        self._on_bus()
+        self.on_bus()
         return self.station.send(ASYNC_PACKET, destination, packet)
 
 

@@ -168,7 +168,7 @@ class BusHost:
 
     # -- transactions (non-blocking starts) ----------------------------------------------
     def start_read_quadlet(self, node: int, offset: int) -> int:
-        tid = self.requester.read_quadlet(resolve(node), offset, self._on_bus())
+        tid = self.requester.read_quadlet(resolve(node), offset, self.on_bus())
         self._flush_requests()
         return tid
 
@@ -179,12 +179,12 @@ class BusHost:
                 f"a block read of {length} bytes cannot cross the virtual bus: its response "
                 f"would not fit one datagram (at most {limit} bytes per read)"
             )
-        tid = self.requester.read_block(resolve(node), offset, length, self._on_bus())
+        tid = self.requester.read_block(resolve(node), offset, length, self.on_bus())
         self._flush_requests()
         return tid
 
     def start_write_quadlet(self, node: int, offset: int, value: int) -> int:
-        tid = self.requester.write_quadlet(resolve(node), offset, value, self._on_bus())
+        tid = self.requester.write_quadlet(resolve(node), offset, value, self.on_bus())
         self._flush_requests()
         return tid
 
@@ -194,14 +194,14 @@ class BusHost:
                 f"a block write of {len(data)} bytes cannot cross the virtual bus: it would "
                 f"not fit one datagram (at most {limit} bytes per write)"
             )
-        tid = self.requester.write_block(resolve(node), offset, data, self._on_bus())
+        tid = self.requester.write_block(resolve(node), offset, data, self.on_bus())
         self._flush_requests()
         return tid
 
     def start_lock(
         self, node: int, offset: int, extended_tcode: int, argument: bytes, data: bytes
     ) -> int:
-        now = self._on_bus()
+        now = self.on_bus()
         tid = self.requester.lock(resolve(node), offset, extended_tcode, argument, data, now)
         self._flush_requests()
         return tid
@@ -228,7 +228,7 @@ class BusHost:
         return events
 
     # -- the loop -----------------------------------------------------------------------
-    def _on_bus(self) -> float:
+    def on_bus(self) -> float:
         """Make sure this host is on the bus and ready; the time it was sure of it."""
         now = self._back_if_away()
         if self.station.membership.ready:
@@ -261,14 +261,18 @@ class BusHost:
                 station.rejoin()
             link.service(now)
         except BusRefusedError as error:
-            raise self._refused(error) from None
+            raise self.refused(error) from None
         self._served_at = now
 
     def _pump(self) -> None:
         try:
             now = self.link.turn()
         except BusRefusedError as error:
-            raise self._refused(error) from None
+            raise self.refused(error) from None
+        self.after_turn(now)
+
+    def after_turn(self, now: float) -> None:
+        """What the host does after each turn of its link, which ended at ``now``."""
         if now - self._served_at > self._paused_after:
             # Stopped inside a call: the answers that queued up meanwhile are taken
             # before any engine timer can call them missing.
@@ -285,7 +289,8 @@ class BusHost:
                 self._flush_requests()
                 self._collect()
 
-    def _refused(self, error: BusRefusedError) -> BusError:
+    def refused(self, error: BusRefusedError) -> BusError:
+        """The error a blocking call raises when the coordinator refused this host."""
         return BusError(f"bus {self.config.name!r} refused this host: {error}")
 
     def _on_reset(self, change: BusReset) -> None:

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
-from fw1394.engine import LockCompleted, ReadCompleted, TransactionEvent, TransactionFailed
+import functools
+
+from fw1394.engine import LockCompleted, TransactionEvent, TransactionFailed
 from fw1394.transport.bus_host import BusHost, TransactionError
+from fw1394.transport.express import Express
 
 
 def _ended(event: TransactionEvent) -> TransactionEvent:
@@ -16,24 +19,26 @@ class BusPort(BusHost):
     """A :class:`fw1394.host.port.Port` whose nodes are on a virtual bus.
 
     ``node`` is a physical ID (0-62, 63 broadcasts writes) or a full node ID.
-    Failures raise :class:`TransactionError` naming the engine's reason.
+    Failures raise :class:`TransactionError` naming the engine's reason. Reads
+    and writes take the one-pass path of :mod:`fw1394.transport.express` when
+    they can, the general one otherwise.
     """
 
+    @functools.cached_property
+    def _express(self) -> Express:
+        return Express(self)
+
     def read_quadlet(self, node: int, offset: int) -> int:
-        event = _ended(self.wait(self.start_read_quadlet(node, offset)))
-        assert isinstance(event, ReadCompleted)
-        return int.from_bytes(event.data, "big")
+        return self._express.read_quadlet(node, offset)
 
     def write_quadlet(self, node: int, offset: int, value: int) -> None:
-        _ended(self.wait(self.start_write_quadlet(node, offset, value)))
+        self._express.write_quadlet(node, offset, value)
 
     def read_block(self, node: int, offset: int, length: int) -> bytes:
-        event = _ended(self.wait(self.start_read_block(node, offset, length)))
-        assert isinstance(event, ReadCompleted)
-        return event.data
+        return self._express.read_block(node, offset, length)
 
     def write_block(self, node: int, offset: int, data: bytes) -> None:
-        _ended(self.wait(self.start_write_block(node, offset, data)))
+        self._express.write_block(node, offset, data)
 
     def lock(
         self, node: int, offset: int, extended_tcode: int, argument: bytes, data: bytes

@@ -94,9 +94,15 @@ class LinkLayer:
     # -- a station's loop --------------------------------------------------------------
     def turn(self) -> float:
         """Receive one frame (or wait out a quiet poll), serve it, keep the timers; now."""
-        station = self._station()
-        frame = station.receive()
+        frame = self._station().receive()
         now = _clock()  # when the frame arrived: one clock reading serves the turn
+        self.settle(frame, now)
+        return now
+
+    def settle(self, frame: tuple[FrameHeader, bytes] | None, now: float) -> None:
+        """The rest of a turn: serve ``frame`` (None: a quiet poll) that came at ``now``,
+        and keep the timers."""
+        station = self._station()
         if frame is None:
             # Bus management (or a quiet poll): the engine must learn its new node ID
             # before the first packet of a new generation is answered or sent.
@@ -106,7 +112,6 @@ class LinkLayer:
             self.receive(frame[0], frame[1], now)
         if now >= self.due or now >= station.wake_by:
             self.service(now)
-        return now
 
     def receive(self, header: FrameHeader, payload: bytes, now: float) -> None:
         """A data frame from the station: taken if it is of this member's generation."""

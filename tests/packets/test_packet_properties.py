@@ -18,6 +18,7 @@ from fw1394.packets import (
     PacketError,
     PhyPacket,
     QuadletReadRequest,
+    TCode,
     decode,
     encode,
     to_json,
@@ -29,6 +30,7 @@ from fw1394.packets.fast import (
     decode_packet,
     decode_sound,
     encode_packet,
+    wire_builder,
 )
 
 
@@ -125,6 +127,25 @@ def test_dataclass_values_are_immutable() -> None:
 @given(async_packets(max_data=64))
 def test_fast_encode_equals_codec(packet: AsyncPacket) -> None:
     assert encode_packet(packet) == encode(packet)
+
+
+@given(async_packets(max_data=64), st.data())
+def test_wire_builder_equals_codec(packet: AsyncPacket, data: st.DataObject) -> None:
+    # Any subset of the fields, in any order: the others take their defaults.
+    layout = packet.LAYOUT
+    settable = [n for n in layout.fields if not (layout.has_data and n == "data_length")]
+    settable += ["data"] if layout.has_data else []
+    names = data.draw(st.lists(st.sampled_from(settable), unique=True))
+    values = {name: getattr(packet, name) for name in names}
+    assert wire_builder(type(packet), *names)(*values.values()) == encode(type(packet)(**values))
+
+
+def test_wire_builder_computes_what_it_is_not_told() -> None:
+    read = ASYNC_CLASSES[TCode.read_block_response]
+    with pytest.raises(TypeError, match="data_length is the length of data"):
+        wire_builder(read, "data", "data_length")
+    with pytest.raises(TypeError, match="header_crc"):
+        wire_builder(read, "header_crc")
 
 
 @given(async_packets(max_data=64))
