@@ -33,10 +33,10 @@ from fw1394.engine import Requester, Responder
 from fw1394.engine.fast_requester import FastEnds
 from fw1394.engine.fast_responder import FastResponder
 from fw1394.engine.responder import Reply, decode_received
-from fw1394.packets import AckCode, AsyncPacket, PacketError
+from fw1394.packets import AckCode, AsyncPacket
 from fw1394.packets.accessors import TLABEL
 from fw1394.packets.ack import ack_code
-from fw1394.packets.fast import decode_packet, encode_packet
+from fw1394.packets.fast import decode_sound, encode_packet
 from fw1394.packets.nodeid import BROADCAST_ID, node_id, phy_of
 from fw1394.transport.membership import BusReset, Change, Excluded, Refused
 from fw1394.transport.station import Station
@@ -292,10 +292,10 @@ class RequesterLink(LinkLayer):
 
     def on_response(self, sender: int, sequence: int, payload: bytes, now: float) -> None:
         """A response packet from ``sender`` in frame ``sequence``, acked if the engine says so."""
-        try:
-            packet = decode_packet(payload)
-        except PacketError:
-            packet = None  # line noise (a reserved tcode): nothing on a real bus acks it
+        # A response that fails its CRC or length checks is discarded unacked, as
+        # a 1394 link discards it: its label, source or data cannot be trusted,
+        # and completing a transaction with it would hand the caller wrong bytes.
+        packet = decode_sound(payload)
         if packet is not None:
             code = self.requester.receive_response(packet, now)
             if code is not None:

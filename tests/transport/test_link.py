@@ -231,3 +231,31 @@ def test_frames_of_another_generation_never_reach_the_engine() -> None:
     fake.membership.phy_id = None  # between generations: no address, nothing taken
     link.receive(FrameHeader(1, 0, 7, 2, HOST_PHY, 1, sequence=3), raw, 0.0)
     assert len(sent) == 1
+
+
+@pytest.mark.parametrize("flip", [0, 2, 15], ids=["destination", "tlabel", "quadlet-data"])
+def test_a_damaged_response_is_discarded_unacked(flip: int) -> None:
+    requester = Requester(node_id=HOST_ID, ack_timeout=1.0, split_timeout=1.0)
+    sent: Sent = []
+    link = RequesterLink(requester, lambda k, d, p: sent.append((k, d, p)))
+    tid = requester.read_quadlet(NODE_ID, 0x40, 0.0)
+    link.flush()
+    (_, _, raw), = sent
+    label = decode_packet(raw).tlabel  # type: ignore[attr-defined]
+    response = bytearray(
+        encode_packet(
+            QuadletReadResponse(
+                destination_id=HOST_ID, tlabel=label, source_id=NODE_ID, quadlet_data=0xCAFEF00D
+            )
+        )
+    )
+    response[flip] ^= 0x04  # one bit the header CRC covers
+    ack = bytes([ACK_PENDING_BYTE, label, 0, 0, 0, 0, 0, 9])
+    link.take(FrameHeader(2, 0, 8, 0, NODE_PHY, HOST_PHY, sequence=9), ack + response, 0.0)
+    # No completion with wrong bytes, and no ack for a packet the link cannot trust.
+    assert len(sent) == 1
+    assert not [e for e in requester.events() if isinstance(e, ReadCompleted)]
+    requester.handle_timer(1.5)
+    (failure,) = requester.events()
+    assert isinstance(failure, TransactionFailed) and failure.transaction == tid
+    assert failure.reason == FailureReason.response_timeout
