@@ -272,25 +272,17 @@ class Snake2010Board:
     def _run_physics(self, target: int) -> None:
         # Steps sit on a fixed grid of absolute ticks, so the motion does not
         # depend on how often the clock is set, only on when registers change.
-        now, step = self._now, self._step
+        now = self._now
         if now >= target:
             return
-        # Registers cannot change inside this loop, so fetch each drive once;
+        self._now = target
+        # Registers cannot change meanwhile, so each drive holds for the span;
         # unpowered motors at rest cannot move and are left out.
-        moving = [ch for ch in self.channels if ch.drive.powered or ch.motor.velocity_rad_s != 0.0]
-        if not moving:
-            self._now = target
-            return
-        motors = [(ch.motor.advance, ch.drive) for ch in moving]
-        while now < target:
-            nxt = min((now // step + 1) * step, target)
-            seconds = (nxt - now) / TICKS_PER_SECOND
-            for advance, drive in motors:
-                advance(seconds, drive)
-            now = nxt
-        self._now = now
-        for channel in moving:
-            channel.moved()
+        for channel in self.channels:
+            drive = channel.drive
+            if drive.powered or channel.motor.velocity_rad_s != 0.0:
+                channel.motor.run(now, target, self._step, TICKS_PER_SECOND, drive)
+                channel.moved()
 
     def _realtime_block(self) -> bytes:
         elapsed = (self._now - self._last_realtime_read) & 0xFFFF_FFFF

@@ -70,6 +70,8 @@ class Channel:
         self._powered = False
         self._drive: Drive | None = None  # cache, rebuilt after register writes
         self._gain = current_feedback_gain(self.pot.wiper)  # follows pot writes
+        self._sense_gain = self._gain * constants.sense_ohms  # sense volts per amp
+        self._travel_mm = constants.travel_mm
         self._counts_per_rad = constants.encoder_counts_per_rev / (2.0 * math.pi)
         # The real-time block's words, kept until the motor moves or a register
         # changes: a servo loop reads them far more often than a motor at rest changes.
@@ -114,7 +116,7 @@ class Channel:
         """ADC, encoder and period words, as :meth:`read` gives them, kept while valid."""
         words = self._words
         if words is None:
-            words = self._words = (self.adc_word(), self.encoder_word(), self.period_word())
+            words = self._words = self._fresh_words()
         return words
 
     def moved(self) -> None:
@@ -150,6 +152,7 @@ class Channel:
             self.pot.execute(value)
             # The wiper or O1 may have changed.
             self._gain = current_feedback_gain(self.pot.wiper)
+            self._sense_gain = self._gain * self.constants.sense_ohms
             self._drive = None
             self._words = None
         elif device == Device.ENCODER_PRELOAD:
@@ -176,25 +179,11 @@ class Channel:
 
     def adc_word(self) -> int:
         """Pot sample in bits 31-16, motor-current sample in bits 15-0."""
-        if self.wiring == "loopback":
-            pot = self.motor_command / DAC_STEPS
-            current = self.current_limit / DAC_STEPS
-        else:
-            c = self.constants
-            pot = self.motor.position_mm / c.travel_mm
-            sense_volts = self._gain * c.sense_ohms * self.current_amps()
-            current = 0.5 + sense_volts / CONVERTER_VOLTS
-        pot_half = adc_code(pot) & ADC_HALF_MASK
-        return (pot_half << ADC_POT_SHIFT) | (adc_code(current) & ADC_HALF_MASK)
+        return self.realtime_words()[0]
 
     def encoder_word(self) -> int:
         """24-bit count in bits 23-0 and the sticky overflow flag in bit 24."""
-        motor = self.motor
-        count = self._count_from(motor.angle_rad)
-        lowest = self._count_from(motor.lowest_angle_rad)
-        highest = self._count_from(motor.highest_angle_rad)
-        overflow = lowest < 0 or highest > ENCODER_COUNT_MASK
-        return (count & ENCODER_COUNT_MASK) | (ENCODER_OVERFLOW if overflow else 0)
+        return self.realtime_words()[1]
 
     def period_word(self) -> int:
         """Signed 16-bit count of 768 kHz clocks between encoder edges.
@@ -203,19 +192,37 @@ class Channel:
         the counter can measure (or stopped) reads +/-0x7FFF, signed by the
         direction it last moved in.
         """
-        direction = self.motor.last_direction
+        return self.realtime_words()[2]
+
+    def _fresh_words(self) -> tuple[int, int, int]:
+        # The three words in one pass over the motor's state: they are rebuilt
+        # after every physics span of a moving motor, so this is a hot path.
+        motor, floor = self.motor, math.floor
+        if self.wiring == "loopback":
+            pot = self.motor_command / DAC_STEPS
+            current = self.current_limit / DAC_STEPS
+        else:
+            pot = motor.position_mm / self._travel_mm
+            current = 0.5 + self._sense_gain * self.current_amps() / CONVERTER_VOLTS
+        adc = ((adc_code(pot) & ADC_HALF_MASK) << ADC_POT_SHIFT) | (
+            adc_code(current) & ADC_HALF_MASK
+        )
+        per_rad, base = self._counts_per_rad, self.preload - self._count_at_preload
+        count = base + floor(motor.angle_rad * per_rad)
+        overflow = (
+            base + floor(motor.lowest_angle_rad * per_rad) < 0
+            or base + floor(motor.highest_angle_rad * per_rad) > ENCODER_COUNT_MASK
+        )
+        encoder = (count & ENCODER_COUNT_MASK) | (ENCODER_OVERFLOW if overflow else 0)
+        direction = motor.last_direction
         if direction == 0:
-            return 0
-        edges_per_second = abs(self.motor.velocity_rad_s) * self._counts_per_rad
+            return adc, encoder, 0
+        edges_per_second = abs(motor.velocity_rad_s) * per_rad
         if edges_per_second * PERIOD_SATURATED <= PERIOD_CLOCK_HZ:
             clocks = PERIOD_SATURATED
         else:
-            clocks = math.floor(PERIOD_CLOCK_HZ / edges_per_second)
-        return (direction * clocks) & PERIOD_MASK
+            clocks = floor(PERIOD_CLOCK_HZ / edges_per_second)
+        return adc, encoder, (direction * clocks) & PERIOD_MASK
 
     def _raw_count(self, angle_rad: float) -> int:
         return math.floor(angle_rad * self._counts_per_rad)
-
-    def _count_from(self, angle_rad: float) -> int:
-        # Counter value (before wrapping) if the motor stood at angle_rad.
-        return self.preload + self._raw_count(angle_rad) - self._count_at_preload

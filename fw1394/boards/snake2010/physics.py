@@ -26,12 +26,16 @@ Model (documented in docs/boards/snake2010.md):
 Within one direction of motion the equations are linear, so each fixed step
 is integrated exactly (exponential solution) under the regime holding at its
 start; a step in which friction brings the motor to rest ends at rest.
+:meth:`MotorAxis.run` covers a whole span of such steps with one exponential
+while the regime provably holds at every step start, which is the same motion
+up to rounding (the composition of exponentials against their product).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 
 @dataclass(frozen=True)
@@ -76,9 +80,12 @@ class MotorConstants:
         return self.travel_mm / 2.0 * self.motor_revs_per_mm * 2.0 * math.pi
 
 
-@dataclass(frozen=True)
-class Drive:
-    """Amplifier inputs; they change only when a register is written."""
+class Drive(NamedTuple):
+    """Amplifier inputs; they change only when a register is written.
+
+    A named tuple rather than a dataclass: the physics reads its fields on every
+    step, and tuple fields are the cheapest attribute reads Python has.
+    """
 
     powered: bool
     bridge_volts: float = 0.0  # what the command alone asks across the motor
@@ -87,6 +94,11 @@ class Drive:
 
 
 UNPOWERED = Drive(powered=False)
+
+#: (1/time constant, final speed, current, which branch of the amplifier model).
+Regime = tuple[float, float, float, int]
+#: The branches: each holds on one interval of speeds (its conditions are linear in it).
+_COASTING, _LINEAR, _HIGH_RAIL, _HIGH_LIMIT, _LOW_RAIL, _LOW_LIMIT = range(6)
 
 
 class MotorAxis:
@@ -118,7 +130,7 @@ class MotorAxis:
 
     def current_amps(self, drive: Drive) -> float:
         """Motor current for the present speed and ``drive``."""
-        return self._regime(drive)[2]
+        return self._regime(drive, self.velocity_rad_s)[2]
 
     def reset_excursion(self) -> None:
         """Forget the travel seen so far (the encoder was preloaded)."""
@@ -129,7 +141,7 @@ class MotorAxis:
         w0 = self.velocity_rad_s
         if w0 == 0.0 and not drive.powered:
             return  # idle axes cost nothing, which keeps big buses cheap
-        rate, w_drive, amps = self._regime(drive)
+        rate, w_drive, amps, _ = self._regime(drive, w0)
         if w0 == 0.0:
             torque = self._ke * amps
             if abs(torque) <= self._coulomb:
@@ -148,6 +160,62 @@ class MotorAxis:
                 return
         self._move(seconds, rate, w0, w_final)
 
+    def run(self, start: int, target: int, step: int, ticks_per_second: int, drive: Drive) -> None:
+        """Move from tick ``start`` to ``target`` as :meth:`advance` per step of a fixed grid would.
+
+        The reference takes one :meth:`advance` per ``step`` ticks of the absolute
+        grid (the first and last steps cut at ``start`` and ``target``). While the
+        regime chosen at the first step start holds at every later one, the
+        steps compose into one exponential, so the whole rest of the span is
+        tried at once; where it may not hold, one reference step is taken.
+        """
+        now = start
+        while now < target:
+            if self._jump((target - now) / ticks_per_second, drive):
+                return
+            nxt = min((now // step + 1) * step, target)
+            self.advance((nxt - now) / ticks_per_second, drive)
+            now = nxt
+
+    def _jump(self, seconds: float, drive: Drive) -> bool:
+        """Move ``seconds`` at once if every step start would choose the same regime.
+
+        The regime depends on the speed alone, each regime holds on an interval
+        of speeds, and within one regime the speed moves monotonically; so the
+        regime at the span's end speed equal to the one at its start proves it
+        for every speed between. A span in which the motor comes to rest or
+        reaches a hard stop is declined (False, nothing changed): the
+        reference ends such a step early.
+        """
+        w0 = self.velocity_rad_s
+        if w0 == 0.0 and not drive.powered:
+            return True
+        rate, w_drive, amps, regime = self._regime(drive, w0)
+        if w0 == 0.0:
+            torque = self._ke * amps
+            if abs(torque) <= self._coulomb:
+                return True  # stiction holds now, so at every later step start too
+            direction = 1.0 if torque > 0 else -1.0
+        else:
+            direction = 1.0 if w0 > 0 else -1.0
+        w_final = w_drive - direction * self._coulomb / (self._inertia * rate)
+        if w_final * direction < 0.0 and math.log1p(w0 / -w_final) / rate < seconds:
+            return False
+        gone = -math.expm1(-rate * seconds)
+        w1 = w_final + (w0 - w_final) * (1.0 - gone)
+        angle = self.angle_rad + w_final * seconds + (w0 - w_final) * gone / rate
+        if angle > self._stop or angle < -self._stop or self._regime(drive, w1)[3] != regime:
+            return False
+        self.angle_rad = angle
+        self.velocity_rad_s = w1
+        if w1 != 0.0:
+            self.last_direction = 1 if w1 > 0 else -1
+        if angle < self.lowest_angle_rad:
+            self.lowest_angle_rad = angle
+        elif angle > self.highest_angle_rad:
+            self.highest_angle_rad = angle
+        return True
+
     def _move(self, seconds: float, rate: float, w0: float, w_final: float) -> None:
         # Exact solution of dw/dt = rate * (w_final - w) over ``seconds``.
         gone = -math.expm1(-rate * seconds)  # 1 - exp(-x) without cancellation
@@ -165,15 +233,15 @@ class MotorAxis:
         elif angle > self.highest_angle_rad:
             self.highest_angle_rad = angle
 
-    def _regime(self, drive: Drive) -> tuple[float, float, float]:
-        """(1/time constant, final speed, current) of the regime in force now.
+    def _regime(self, drive: Drive, w: float) -> Regime:
+        """(1/time constant, final speed, current, which regime) at speed ``w``.
 
         The motion obeys ``dw/dt = rate * (w_final - w)`` until the regime
-        changes; which regime holds depends on the present speed.
+        changes; which regime holds depends on the speed.
         """
         if not drive.powered:
-            return self._friction / self._inertia, 0.0, 0.0
-        emf = self._ke * self.velocity_rad_s
+            return self._friction / self._inertia, 0.0, 0.0, _COASTING
+        emf = self._ke * w
         ohms = self._ohms
         effective = ohms - drive.compensation_ohms
         if effective > self._runaway_ohms:
@@ -190,20 +258,20 @@ class MotorAxis:
         high_rail, low_rail = (rail - emf) / ohms, (-rail - emf) / ohms
         if wanted > high_rail or wanted > limit:
             if high_rail < limit:
-                return self._voltage_regime(rail, ohms, high_rail)
-            return self._current_regime(limit)
+                return self._voltage_regime(rail, ohms, high_rail, _HIGH_RAIL)
+            return self._current_regime(limit, _HIGH_LIMIT)
         if wanted < low_rail or wanted < -limit:
             if low_rail > -limit:
-                return self._voltage_regime(-rail, ohms, low_rail)
-            return self._current_regime(-limit)
-        return self._voltage_regime(drive.bridge_volts, effective, wanted)
+                return self._voltage_regime(-rail, ohms, low_rail, _LOW_RAIL)
+            return self._current_regime(-limit, _LOW_LIMIT)
+        return self._voltage_regime(drive.bridge_volts, effective, wanted, _LINEAR)
 
-    def _voltage_regime(self, volts: float, ohms: float, amps: float) -> tuple[float, float, float]:
+    def _voltage_regime(self, volts: float, ohms: float, amps: float, regime: int) -> Regime:
         # I = (V - Ke w) / R: the back EMF makes the speed settle.
         damping = self._friction + self._kt_ke / ohms
-        return damping / self._inertia, self._ke * volts / ohms / damping, amps
+        return damping / self._inertia, self._ke * volts / ohms / damping, amps, regime
 
-    def _current_regime(self, amps: float) -> tuple[float, float, float]:
+    def _current_regime(self, amps: float, regime: int) -> Regime:
         # Fixed current: only friction opposes the constant torque.
         b = self._friction
-        return b / self._inertia, self._ke * amps / b, amps
+        return b / self._inertia, self._ke * amps / b, amps, regime
