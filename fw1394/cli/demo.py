@@ -16,7 +16,9 @@ What it does: starts a virtual 1394 bus with the two FPGA boards of the
 thesis's Snake Robot (7 axes + 4 axes), runs a 1 kHz position loop on all 11
 axes through the host API (one block read and one block write per board per
 cycle), prints live progress and a summary, writes a plot of commanded versus
-measured positions, and stops every process it started.
+measured positions, and stops every process it started. The summary counts
+the transactions the host sent by kind, and gives each process's CPU time,
+wake-ups and preemptions per cycle (from /proc).
 
 examples:
   fw1394 demo
@@ -147,8 +149,15 @@ def _print_summary(numbers: dict[str, Any]) -> None:
     )
     print(
         f"bus time/cycle    p50 {bus['p50']} us   p99 {bus['p99']} us   max {bus['max']} us "
-        f"({numbers['transactions_per_cycle']} block transactions)"
+        f"({numbers['transactions_per_cycle']} transactions)"
     )
+    kinds = ", ".join(f"{n} {k}" for k, n in numbers["transactions_by_kind"].items())
+    print(f"host sent         {kinds}")
+    for name, cost in numbers["per_cycle_by_process"].items():
+        print(
+            f"  {name:24} {cost['cpu_us']:7.1f} us CPU  {cost['wakeups']:5.2f} wake-ups  "
+            f"{cost['preemptions']:5.2f} preemptions per cycle"
+        )
     print(f"watchdog trips    {numbers['watchdog_trips']}   bus resets {numbers['bus_resets']}")
     print("tracking RMS      " + " ".join(f"{e:.0f}" for e in rms) + " counts (axes 1-11)")
     if "plot" in numbers:

@@ -51,7 +51,14 @@ def summary(result: DemoResult) -> dict[str, Any]:
             name: round(percentile(result.cycle_bus_times, share) * micro, 1)
             for name, share in (("p50", 0.5), ("p99", 0.99), ("max", 1.0))
         },
-        "transactions_per_cycle": 4,
+        "transactions_per_cycle": round(
+            sum(result.servo_transactions.values()) / result.cycles, 2
+        )
+        if result.cycles
+        else 0.0,
+        "transactions_by_kind": result.transactions_by_kind,
+        "servo_transactions_by_kind": result.servo_transactions,
+        "per_cycle_by_process": result.processes,
         "overruns": result.overruns,
         "watchdog_trips": result.watchdog_trips,
         "bus_resets": result.bus_resets,

@@ -19,6 +19,8 @@ from fw1394.boards.snake2010.spec import (
     STATUS_WATCHDOG_TIMEOUT,
     WATCHDOG_PRESCALER,
 )
+from fw1394.demo.counting import CountingPort
+from fw1394.demo.processes import children, per_cycle, snapshot, wait_idle
 from fw1394.engine import FailureReason
 from fw1394.engine.space import TICKS_PER_SECOND
 from fw1394.host import Board, MultiBoard, PdGains, PositionLoop
@@ -34,6 +36,8 @@ AXES_PER_BOARD = (7, 4)
 #: Watchdog period: a host stalled this long finds its amplifiers switched off.
 WATCHDOG_SECONDS = 0.050
 GAINS = PdGains(kp=8.0, kd=0.01)
+#: The capture process's nice value: it yields the cores to the servo path (host, nodes).
+CAPTURE_NICENESS = 10
 
 
 def trajectory(axis: int) -> Callable[[float], float]:
@@ -71,6 +75,13 @@ class DemoResult:
     bus_resets: int = 0
     final_errors: list[float] = field(default_factory=list)
     bus_name: str = ""
+    #: Every transaction the host started, by request kind (set-up and shut-down included).
+    transactions_by_kind: dict[str, int] = field(default_factory=dict)
+    #: Those of the servo loop alone, by kind.
+    servo_transactions: dict[str, int] = field(default_factory=dict)
+    #: Per process (host, nodes, adapter, supervisor, capture): CPU µs, wake-ups and
+    #: preemptions per servo cycle (:mod:`fw1394.demo.processes`).
+    processes: dict[str, dict[str, float]] = field(default_factory=dict)
 
 
 Progress = Callable[[DemoResult, float], None]
@@ -99,18 +110,38 @@ def run_demo(
     launched = LaunchedBus(
         config, len(BOARDS), board=",".join(BOARDS), node_arguments=("--adapter",)
     )
-    with _idle_for_children(idle), launched as bus, _tap(config, capture):
+    with _idle_for_children(idle), launched as bus, _tap(config, capture) as tap:
         bus.wait_members()
-        with BusPort(config, idle=idle) as port:
-            nodes = [phy for phy, member in port.nodes() if not member.host]
+        with BusPort(config, idle=idle) as bus_port:
+            port = CountingPort(bus_port)
+            nodes = [phy for phy, member in bus_port.nodes() if not member.host]
             robot = MultiBoard(
                 [Board(port, node, axes) for node, axes in zip(nodes, AXES_PER_BOARD, strict=True)]
             )
             _retrying_bus_resets(lambda: _power_up(port, robot, nodes))
+            pids = _demo_processes(launched, tap)
+            before, counted = snapshot(pids), port.counts.copy()
             _servo(robot, result, seconds, rate_hz, progress, sample_every)
+            result.processes = per_cycle(before, snapshot(pids), result.cycles)
+            result.servo_transactions = dict(port.counts - counted)
             robot.set_power_control(robot.power_word(range(robot.num_axes), on=False))
             _retrying_bus_resets(robot.apply_all_outputs)
+            result.transactions_by_kind = dict(port.counts)
     return result
+
+
+def _demo_processes(bus: LaunchedBus, tap: subprocess.Popen[bytes] | None) -> dict[str, int]:
+    """The processes a demo cycle may cost CPU in, by name."""
+    pids = {"host": os.getpid()}
+    nodes = {record.pid: f"node {record.board}" for record in bus.records()}
+    pids.update({name: pid for pid, name in nodes.items()})
+    if bus.process is not None:
+        pids["supervisor"] = bus.process.pid
+        others = [pid for pid in children(bus.process.pid) if pid not in nodes]
+        pids.update({f"adapter {n}" if n else "adapter": pid for n, pid in enumerate(others)})
+    if tap is not None:
+        pids["capture"] = tap.pid
+    return pids
 
 
 @contextlib.contextmanager
@@ -131,12 +162,18 @@ def _idle_for_children(idle: IdleStrategy | None) -> Iterator[None]:
 
 
 @contextlib.contextmanager
-def _tap(config: BusConfig, path: Path | None) -> Iterator[None]:
+def _tap(config: BusConfig, path: Path | None) -> Iterator[subprocess.Popen[bytes] | None]:
     if path is None:
-        yield
+        yield None
         return
+    # The capture's header marks its tap listening; a file left by an earlier run
+    # would say so before this capture even started, and its first packets be lost.
+    path.unlink(missing_ok=True)
     command = [sys.executable, "-m", "fw1394.capture.formats.bus_recorder", config.name, str(path)]
     tap = subprocess.Popen(command, stdin=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    # An observer: the kernel stamps and buffers its frames (megabytes of them), so
+    # it can wait while the host and the nodes have the cores, and catch up after.
+    os.setpriority(os.PRIO_PROCESS, tap.pid, CAPTURE_NICENESS)
     try:
         # The capture writes its file header once its tap listens; traffic waits for it.
         limit = time.monotonic() + 20.0
@@ -144,9 +181,11 @@ def _tap(config: BusConfig, path: Path | None) -> Iterator[None]:
             if time.monotonic() > limit:
                 break
             time.sleep(0.02)
-        yield
+        yield tap
     finally:
-        # SIGINT is the capture's clean stop: it finishes the record and the file.
+        # SIGINT is the capture's clean stop: it finishes the record and the file, but
+        # drops what its socket still holds, so a capture that lags is let catch up.
+        wait_idle(tap.pid)
         tap.send_signal(signal.SIGINT)
         try:
             tap.wait(10)
@@ -166,7 +205,7 @@ def _retrying_bus_resets(action: Callable[[], None], attempts: int = 3) -> None:
                 raise
 
 
-def _power_up(port: BusPort, robot: MultiBoard, nodes: list[int]) -> None:
+def _power_up(port: CountingPort, robot: MultiBoard, nodes: list[int]) -> None:
     period = round(WATCHDOG_SECONDS * TICKS_PER_SECOND / WATCHDOG_PRESCALER)
     for node in nodes:
         port.write_quadlet(node, REG_WATCHDOG_PERIOD, period)
@@ -228,9 +267,7 @@ def _servo(
         if cycle % sample_every == 0:
             result.times.append(loop_time)
             result.commanded.append([target(loop_time) for target in targets])
-            result.measured.append(
-                [robot.get_encoder_position(axis) for axis in range(robot.num_axes)]
-            )
+            result.measured.append(robot.get_encoder_positions())
         cycle += 1
         result.cycles = cycle
         result.final_errors = errors

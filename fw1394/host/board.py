@@ -11,7 +11,7 @@ with quadlet transactions; the docstrings say which is which.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 
 from fw1394.boards.snake2010.regmap import REGISTER_MAP
 from fw1394.boards.snake2010.rt_blocks import (
@@ -143,6 +143,10 @@ class Board(RobotIO):
         """Latched 24-bit encoder count (preload the mid-point 0x800000 first)."""
         return self._inputs.encoder[self._index(axis)] & ENCODER_COUNT_MASK
 
+    def get_encoder_positions(self) -> list[int]:
+        """Every axis's latched 24-bit encoder count, in axis order."""
+        return [word & ENCODER_COUNT_MASK for word in self._inputs.encoder]
+
     def get_encoder_overflow(self, axis: int) -> bool:
         """Latched overflow flag: the count left 0..2**24-1 since the last preload."""
         return bool(self._inputs.encoder[self._index(axis)] & ENCODER_OVERFLOW)
@@ -201,6 +205,12 @@ class Board(RobotIO):
         other; the speed grows with the distance from 0x8000.
         """
         self._commands[self._index(axis)] = _checked(value, DAC_MAX, "DAC code")
+
+    def set_motor_voltages(self, values: Sequence[int]) -> None:
+        """Buffer every axis's motor command at once (DAC codes, as :meth:`set_motor_voltage`)."""
+        if len(values) != self._channels:
+            raise ValueError(f"{len(values)} motor commands for {self._channels} axes")
+        self._commands = [_checked(value, DAC_MAX, "DAC code") for value in values]
 
     # --- immediate writes ---------------------------------------------------
     def set_motor_current(self, axis: int, value: int) -> None:

@@ -69,8 +69,9 @@ class PositionLoop:
         """Run one servo cycle; return each axis's position error (counts)."""
         io, t = self.io, self.time
         io.latch_all_inputs()
-        positions = [io.get_encoder_position(axis) for axis in range(io.num_axes)]
+        positions = io.get_encoder_positions()
         previous = self._previous or positions
+        commands = []
         for axis, position in enumerate(positions):
             gains = self.gains[axis]
             # The counter wraps at 24 bits; compare positions through that.
@@ -78,8 +79,9 @@ class PositionLoop:
             velocity = count_difference(position, previous[axis]) * self.rate_hz
             command = gains.kp * error - gains.kd * velocity
             limit = gains.max_command
-            io.set_motor_voltage(axis, dac_code(round(min(max(command, -limit), limit))))
+            commands.append(dac_code(round(min(max(command, -limit), limit))))
             self.errors[axis] = error
+        io.set_motor_voltages(commands)
         io.apply_all_outputs()
         self._previous = positions
         self.cycle += 1

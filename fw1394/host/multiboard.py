@@ -65,6 +65,9 @@ class MultiBoard(RobotIO):
         board, local = self.locate(axis)
         return board.get_encoder_position(local)
 
+    def get_encoder_positions(self) -> list[int]:
+        return [count for board in self.boards for count in board.get_encoder_positions()]
+
     def get_encoder_velocity(self, axis: int) -> int:
         board, local = self.locate(axis)
         return board.get_encoder_velocity(local)
@@ -104,6 +107,14 @@ class MultiBoard(RobotIO):
     def set_motor_voltage(self, axis: int, value: int) -> None:
         board, local = self.locate(axis)
         board.set_motor_voltage(local, value)
+
+    def set_motor_voltages(self, values: Sequence[int]) -> None:
+        if len(values) != len(self._axes):
+            raise ValueError(f"{len(values)} motor commands for {len(self._axes)} axes")
+        first = 0
+        for board in self.boards:
+            board.set_motor_voltages(values[first : first + board.num_axes])
+            first += board.num_axes
 
     def set_motor_current(self, axis: int, value: int) -> None:
         board, local = self.locate(axis)

@@ -16,7 +16,7 @@ documents its choice per method.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 
 
 class RobotIO(ABC):
@@ -57,6 +57,14 @@ class RobotIO(ABC):
     def get_encoder_position(self, axis: int) -> int:
         """Incremental encoder count of ``axis``."""
 
+    def get_encoder_positions(self) -> list[int]:
+        """:meth:`get_encoder_position` of every axis, in axis order.
+
+        One call for a servo loop's whole read side; implementations serve it
+        from the latched block without a call per axis.
+        """
+        return [self.get_encoder_position(axis) for axis in range(self.num_axes)]
+
     @abstractmethod
     def get_encoder_velocity(self, axis: int) -> int:
         """Encoder velocity measure of ``axis`` (signed)."""
@@ -89,6 +97,13 @@ class RobotIO(ABC):
     @abstractmethod
     def set_motor_voltage(self, axis: int, value: int) -> None:
         """Motor command of ``axis``."""
+
+    def set_motor_voltages(self, values: Sequence[int]) -> None:
+        """:meth:`set_motor_voltage` of every axis: ``values[axis]`` for each axis."""
+        if len(values) != self.num_axes:
+            raise ValueError(f"{len(values)} motor commands for {self.num_axes} axes")
+        for axis, value in enumerate(values):
+            self.set_motor_voltage(axis, value)
 
     @abstractmethod
     def set_motor_current(self, axis: int, value: int) -> None:

@@ -8,9 +8,10 @@ docs/boards/snake2010.md.
 
 from __future__ import annotations
 
+import functools
 import struct
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from typing import NamedTuple
 
 from fw1394.boards.snake2010.spec import (
     DAC_CODE_MASK,
@@ -28,9 +29,11 @@ class BlockSizeError(ValueError):
     """A real-time block had the wrong number of bytes."""
 
 
-@dataclass(frozen=True)
-class RealtimeInputs:
-    """Raw words of one real-time block read; tuples are indexed by axis."""
+class RealtimeInputs(NamedTuple):
+    """Raw words of one real-time block read; tuples are indexed by axis.
+
+    A named tuple: the host makes one per board and servo cycle.
+    """
 
     timestamp: int
     status: int
@@ -53,19 +56,40 @@ def realtime_read_length(channels: int) -> int:
 
 def parse_realtime_block(data: bytes, channels: int) -> RealtimeInputs:
     """Split a real-time block read into its fields."""
-    expected = realtime_read_length(channels)
-    if len(data) != expected:
-        raise BlockSizeError(f"real-time block of {len(data)} bytes, expected {expected}")
-    words = struct.unpack(f">{expected // 4}I", data)
-    numbers = range(1, channels + 1)
+    shape, fields = _layout(channels)
+    if len(data) != shape.size:
+        raise BlockSizeError(f"real-time block of {len(data)} bytes, expected {shape.size}")
+    words = shape.unpack(data)
+    adc, encoder, period, frequency = fields
+    timestamp, status = words[_TIMESTAMP], words[_STATUS]
     return RealtimeInputs(
-        timestamp=words[RtRead.TIMESTAMP],
-        status=words[RtRead.STATUS],
-        adc=tuple(words[rt_adc_index(n)] for n in numbers),
-        encoder=tuple(words[rt_encoder_index(n, channels)] for n in numbers),
-        period=tuple(words[rt_period_index(n, channels)] for n in numbers),
-        frequency=tuple(words[rt_frequency_index(n, channels)] for n in numbers),
+        timestamp, status, words[adc], words[encoder], words[period], words[frequency]
     )
+
+
+_TIMESTAMP, _STATUS = int(RtRead.TIMESTAMP), int(RtRead.STATUS)
+
+
+@functools.cache
+def _layout(channels: int) -> tuple[struct.Struct, tuple[slice, ...]]:
+    """The block's struct, and the slice of its words holding each per-axis field.
+
+    Read off the spec's index functions: the words of one field are consecutive
+    (checked here), so one slice takes a field for every axis.
+    """
+    fields: tuple[Callable[[int], int], ...] = (
+        rt_adc_index,
+        lambda n: rt_encoder_index(n, channels),
+        lambda n: rt_period_index(n, channels),
+        lambda n: rt_frequency_index(n, channels),
+    )
+    slices = []
+    for index in fields:
+        first = index(1)
+        if [index(n) for n in range(1, channels + 1)] != list(range(first, first + channels)):
+            raise AssertionError("a real-time field's words are not consecutive")
+        slices.append(slice(first, first + channels))
+    return struct.Struct(f">{rt_read_quadlets(channels)}I"), tuple(slices)
 
 
 def build_realtime_write(commands: Sequence[int | None]) -> bytes:
