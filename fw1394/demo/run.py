@@ -36,8 +36,6 @@ AXES_PER_BOARD = (7, 4)
 #: Watchdog period: a host stalled this long finds its amplifiers switched off.
 WATCHDOG_SECONDS = 0.050
 GAINS = PdGains(kp=8.0, kd=0.01)
-#: The capture process's nice value: it yields the cores to the servo path (host, nodes).
-CAPTURE_NICENESS = 10
 
 
 def trajectory(axis: int) -> Callable[[float], float]:
@@ -171,9 +169,6 @@ def _tap(config: BusConfig, path: Path | None) -> Iterator[subprocess.Popen[byte
     path.unlink(missing_ok=True)
     command = [sys.executable, "-m", "fw1394.capture.formats.bus_recorder", config.name, str(path)]
     tap = subprocess.Popen(command, stdin=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    # An observer: the kernel stamps and buffers its frames (megabytes of them), so
-    # it can wait while the host and the nodes have the cores, and catch up after.
-    os.setpriority(os.PRIO_PROCESS, tap.pid, CAPTURE_NICENESS)
     try:
         # The capture writes its file header once its tap listens; traffic waits for it.
         limit = time.monotonic() + 20.0
