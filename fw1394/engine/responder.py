@@ -180,6 +180,16 @@ class Responder:
         self._node_id = node_id
         self._generation = generation
 
+    def advance_clock(self, now: float) -> None:
+        """Bring the space's clock to ``now`` (s), as receiving a request at ``now`` does.
+
+        For a transport that performs a request on the space itself.
+        """
+        ticks = int(now * TICKS_PER_SECOND)
+        if ticks > self._ticks:
+            self._ticks = ticks
+            self._space.set_time(ticks)
+
     # -- receiving ---------------------------------------------------------------------
     def receive(self, raw: bytes, now: float) -> Reply:
         """The reply to the packet ``raw`` (wire bytes with CRCs) received at ``now``."""
@@ -193,10 +203,7 @@ class Responder:
 
         For a transport that decodes once and hands the packet to several nodes.
         """
-        ticks = int(now * TICKS_PER_SECOND)
-        if ticks > self._ticks:
-            self._ticks = ticks
-            self._space.set_time(ticks)
+        self.advance_clock(now)
         kind = type(packet)
         if kind not in _REQUEST_TYPES:
             return _SILENT  # Screen.not_a_request

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import select
 import socket
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -56,6 +57,11 @@ LOCAL_BUS_IDS = 0xFFC0
 TL_MASK = 0x3F
 MAX_BOARDS = 16
 MAX_DATAGRAM = 65_535
+#: How many of the latest datagrams :attr:`EthUdpClient.sent` keeps.
+SENT_KEPT = 1024
+# Plain ints: flag arithmetic on the enum costs more than the rest of a send.
+_NO_FORWARD = int(HostNodeFlag.NO_FORWARD)
+_ETH_BROADCAST = int(HostNodeFlag.ETH_BROADCAST)
 
 
 @dataclass
@@ -99,8 +105,9 @@ class EthUdpClient:
         sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, 0)
         sock.setblocking(False)
         self.sock = sock
-        #: Every datagram sent: (destination address, payload), for tests and traces.
-        self.sent: list[tuple[tuple[str, int], bytes]] = []
+        #: The latest datagrams sent, oldest first: (destination address, payload), for
+        #: tests and traces (bounded: a real-time loop sends thousands a second).
+        self.sent: deque[tuple[tuple[str, int], bytes]] = deque(maxlen=SENT_KEPT)
 
     def close(self) -> None:
         self.sock.close()
@@ -134,9 +141,9 @@ class EthUdpClient:
         return MULTICAST_GROUP if node == BROADCAST_NODE else self.server
 
     def _send(self, packet: AsyncPacket, node: int, flags: int) -> bool:
-        no_forward = bool(flags & HostNodeFlag.NO_FORWARD) or self.ethernet_only
+        no_forward = bool(flags & _NO_FORWARD) or self.ethernet_only
         payload = request_datagram(no_forward, self.state.generation, encode_packet(packet))
-        address = (self.destination(node, bool(flags & HostNodeFlag.ETH_BROADCAST)), self.port)
+        address = (self.destination(node, bool(flags & _ETH_BROADCAST)), self.port)
         self.sent.append((address, payload))
         try:
             self.sock.sendto(payload, address)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import select
+import struct
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -37,11 +38,12 @@ SEQUENCE_LIMIT = 0xFFFF
 
 
 def quadlets(data: bytes) -> list[int]:
-    return [int.from_bytes(data[n : n + 4], "big") for n in range(0, len(data) - 3, 4)]
+    """The whole big-endian quadlets of ``data`` (a partial last one is left out)."""
+    return list(struct.unpack_from(f">{len(data) // 4}I", data))
 
 
 def pack(words: Sequence[int]) -> bytes:
-    return b"".join(word.to_bytes(4, "big") for word in words)
+    return struct.pack(f">{len(words)}I", *words)
 
 
 @dataclass(frozen=True)
@@ -77,6 +79,12 @@ class RealTimeLoop:
             self.protocol = self.scan.protocol
         self.boards = sorted(self.scan.boards, key=lambda board: board.board_id)
         self.mask = sum(1 << board.board_id for board in self.boards)
+        # Fixed for the run: worked out once, not every cycle.
+        self._read_quadlets = [rt.rt_read_quadlets(board.firmware) for board in self.boards]
+        self._hub_size = 4 * (sum(count + 1 for count in self._read_quadlets) + 1)
+        self._idle_words = [
+            write_block(board.board_id, board.firmware, Command()) for board in self.boards
+        ]
 
     # -- reads --------------------------------------------------------------------------
     def read_all(self) -> dict[int, list[int] | None]:
@@ -84,16 +92,15 @@ class RealTimeLoop:
         if self.protocol is Protocol.BC_QRW:
             return self._read_broadcast()
         blocks: dict[int, list[int] | None] = {}
-        for board in self.boards:
-            size = 4 * rt.rt_read_quadlets(board.firmware)
-            data = self.client.read_block_node(board.node, 0, size)
+        for board, count in zip(self.boards, self._read_quadlets, strict=True):
+            data = self.client.read_block_node(board.node, 0, 4 * count)
             blocks[board.board_id] = None if data is None else quadlets(data)
         return blocks
 
     def _read_broadcast(self) -> dict[int, list[int] | None]:
         client = self.client
         self.sequence = self.sequence % SEQUENCE_LIMIT + 1
-        size = 4 * (sum(rt.rt_read_quadlets(b.firmware) + 1 for b in self.boards) + 1)
+        size = self._hub_size
         client.flush()
         query = (self.sequence << 16) | self.mask
         if not client.write_quadlet_node(BROADCAST_NODE, HUB_QUERY, query):
@@ -114,8 +121,7 @@ class RealTimeLoop:
         blocks: dict[int, list[int] | None] = {}
         words = quadlets(data) if data is not None else []
         position = 0
-        for board in self.boards:
-            count = rt.rt_read_quadlets(board.firmware)
+        for board, count in zip(self.boards, self._read_quadlets, strict=True):
             chunk = words[position + 1 : position + 1 + count]
             header = words[position] if position < len(words) else 0
             position += count + 1
@@ -132,9 +138,12 @@ class RealTimeLoop:
         commands = commands or {}
         if self.protocol in (Protocol.SEQ_R_BC_W, Protocol.BC_QRW):
             words: list[int] = []
-            for board in self.boards:
-                command = commands.get(board.board_id, Command())
-                words += write_block(board.board_id, board.firmware, command)
+            for board, idle in zip(self.boards, self._idle_words, strict=True):
+                command = commands.get(board.board_id)
+                if command is None:
+                    words += idle
+                else:
+                    words += write_block(board.board_id, board.firmware, command)
             return self.client.write_block_node(BROADCAST_NODE, 0, pack(words))
         ok = True
         for board in self.boards:

@@ -11,6 +11,7 @@ stay on this machine.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from ipaddress import IPv4Address, IPv4Network
 from pathlib import Path
@@ -63,6 +64,7 @@ def require_loopback(address: str) -> str:
     return address
 
 
+@functools.lru_cache(maxsize=256)  # a host asks for the same few addresses all the time
 def offset_address(base: str, offset: int) -> str:
     """``base`` with ``offset`` added to its last octet, as host and firmware >= 9 do."""
     packed = bytearray(IPv4Address(base).packed)
@@ -75,6 +77,7 @@ def board_address(base: str, board_id: int, firmware: int) -> str:
     return offset_address(base, board_id) if firmware >= MULTICAST_FIRMWARE else base
 
 
+@functools.lru_cache(maxsize=64)
 def classful_broadcast(address: str) -> str:
     """The host's broadcast address: the classful network of ``address``, all ones."""
     octets = IPv4Address(address).packed

@@ -8,7 +8,7 @@ import pytest
 from fw1394.boards.qla1.eth_server import Eth1394Server
 from fw1394.boards.qla1.ethernet import Reply, datagram
 from fw1394.boards.qla1.rack import Rack
-from fw1394.jhu.client import EthUdpClient
+from fw1394.jhu.client import SENT_KEPT, EthUdpClient
 from fw1394.packets import AsyncPacket, decode
 from fw1394.packets.eth1394 import (
     HostReadRequest,
@@ -204,3 +204,15 @@ def test_addresses_and_safety_rules() -> None:
     assert multicast_route_check(header + default) is not None
     assert multicast_route_check(header + default + on_lo) is None
     assert multicast_route_check(header) is None  # no route: the host's send just fails
+
+
+def test_the_client_keeps_only_the_latest_datagrams() -> None:
+    # Nothing listens on the discard port: the writes just leave.
+    with EthUdpClient(Endpoint("127.0.0.1", 9)) as client:
+        for value in range(SENT_KEPT + 3):
+            assert client.write_quadlet_node(0, 0, value)
+        assert len(client.sent) == SENT_KEPT
+        first, last = client.sent[0][1], client.sent[-1][1]
+    # The quadlet data sits after the control word and three header quadlets.
+    assert int.from_bytes(first[14:18], "big") == 3
+    assert int.from_bytes(last[14:18], "big") == SENT_KEPT + 2

@@ -48,7 +48,7 @@ def test_bridge_mode_scan_and_realtime_loop(boards: int) -> None:
             assert scan.bridge and [b.board_id for b in scan.boards] == list(range(boards))
             assert scan.gap_count_written == (5, 7, 8, 10)[boards - 1]
             # The exact first datagrams of a start-up (§1.6): IP write, HW version.
-            (first, ip_write), (_, hw_read) = client.sent[:2]
+            (first, ip_write), (_, hw_read) = list(client.sent)[:2]
             assert first == ("127.255.255.255", port)
             assert ip_write.hex() == "0100ffff0400ffd000000000000b0100007f11c036d8"
             assert hw_read.hex() == "0100ffff0840ffd0000000000004" + "58ffb182"

@@ -26,7 +26,7 @@ from collections.abc import Callable, Sequence
 from fw1394.boards.qla1 import rt_blocks as rt
 from fw1394.boards.qla1.channels import MotorChannel
 from fw1394.boards.qla1.config_rom import CSR_BYTE_MASK, CsrSpace, build_config_rom, in_csr_window
-from fw1394.boards.qla1.hub import HubState
+from fw1394.boards.qla1.hub import HubBlock, HubState, reporting_board
 from fw1394.boards.qla1.phy_window import PhyInterface
 from fw1394.boards.qla1.regmap import FIREWIRE_DECODING
 from fw1394.boards.qla1.regs import (
@@ -157,6 +157,14 @@ class Qla1Board:
         """Another board's block, written to hub memory (a register write: feeds the watchdog)."""
         self.watchdog.clear_count(self._now)
         self.hub.store_broadcast(words, self._now)
+
+    def store_hub_blocks(self, blocks: Sequence[HubBlock]) -> None:
+        """Other boards' blocks of this round, as :meth:`store_hub_broadcast` stores their
+        broadcasts, taken from their hubs instead of unpacked from the broadcasts."""
+        if blocks:
+            self.watchdog.clear_count(self._now)
+        for block in blocks:
+            self.hub.keep(reporting_board(block.quadlets), block, self._now)
 
     # -- AddressSpace -------------------------------------------------------------------
 
@@ -388,13 +396,18 @@ class Qla1Board:
         board = None if DEFECT_RT_WRITE_ANY_BOARD in self.defects else self.board_id
         if self.firmware >= 8:
             write = rt.decode_rev8_write(words, index, board)
-            feeds = bool(write.dac_commands or write.control)
         elif self.firmware == 7:
             write = rt.decode_rev7_write(words, board)
-            feeds = bool(write.dac_commands or write.control)
         else:
             write = rt.decode_old_write(words)
+        self.apply_rt_write(write)
+
+    def apply_rt_write(self, write: rt.RtWrite) -> None:
+        """Carry out this board's share of a real-time block write (decoded already)."""
+        if self.firmware < 7:
             feeds = rt.old_write_feeds_watchdog(write)
+        else:
+            feeds = bool(write.dac_commands or write.control)
         if feeds:
             self.watchdog.clear_count(self._now)
         for channel, value in write.dac_commands:

@@ -19,6 +19,7 @@ Nothing is ever sent to an address outside 127.0.0.0/8.
 
 from __future__ import annotations
 
+import functools
 import select
 import socket
 import sys
@@ -93,14 +94,25 @@ def reply_address(sender: tuple[str, int], local: str) -> tuple[str, int]:
     host's socket (bound to the wildcard address) as the firmware's would.
     """
     host, port = sender
-    if IPv4Address(host) == UNSPECIFIED:
+    if _is_unspecified(host):
         return local, port
     return sender
 
 
+# A server answers the same few hosts all the time: each address is parsed once.
+@functools.lru_cache(maxsize=256)
+def _is_unspecified(host: str) -> bool:
+    return IPv4Address(host) == UNSPECIFIED
+
+
+@functools.lru_cache(maxsize=256)
+def _on_loopback(host: str) -> bool:
+    return IPv4Address(host) in LOOPBACK_NETWORK
+
+
 def send_loopback(sock: socket.socket, payload: bytes, address: tuple[str, int]) -> str | None:
     """Send only to 127.0.0.0/8; None when sent, else why not (for :class:`RefusalLog`)."""
-    if IPv4Address(address[0]) not in LOOPBACK_NETWORK:
+    if not _on_loopback(address[0]):
         return f"not a loopback address (fw1394 sends only to {LOOPBACK_NETWORK})"
     try:
         sock.sendto(payload, address)
@@ -153,7 +165,10 @@ class Eth1394Server:
         self.epoch = time.monotonic()
         self.refusals = RefusalLog(self.say)
         self._unicast: dict[int, socket.socket] = {}
-        self._targets: dict[socket.socket, list[int]] = {}
+        #: The port a socket's datagrams are for; None: every cabled port.
+        self._targets: dict[socket.socket, int | None] = {}
+        self._local: dict[int, str] = {}
+        self._sockets: list[socket.socket] = []
         self._running = True
         try:
             port = self.endpoint.port
@@ -161,16 +176,17 @@ class Eth1394Server:
                 address = board_address(base, port_model.board.board_id, self.rack.firmware)
                 sock = open_udp(require_loopback(address), port)
                 self._unicast[index] = sock
-                self._targets[sock] = [index]
-            everyone = [index for index, _ in self.rack.ports]
-            self._targets[open_udp(classful_broadcast(base), port)] = everyone
+                self._targets[sock] = index
+                self._local[index] = sock.getsockname()[0]
+            self._targets[open_udp(classful_broadcast(base), port)] = None
             if self.rack.firmware >= MULTICAST_FIRMWARE:
                 group = open_udp(MULTICAST_GROUP, port)
-                self._targets[group] = everyone
+                self._targets[group] = None
                 join_loopback_multicast(group)
         except OSError:
             self.close()
             raise
+        self._sockets = list(self._targets)
 
     @property
     def addresses(self) -> list[str]:
@@ -185,7 +201,7 @@ class Eth1394Server:
         due = self.rack.next_deadline()
         if due is not None:
             timeout = max(0.0, min(timeout, due - self.now()))
-        readable, _, _ = select.select(list(self._targets), [], [], timeout)
+        readable, _, _ = select.select(self._sockets, [], [], timeout)
         replies: list[tuple[int, Reply]] = []
         for sock in readable:
             replies += self._drain(sock)
@@ -203,14 +219,17 @@ class Eth1394Server:
                 return replies
             self.stats.received += 1
             now = self.now()
-            for index in self._targets[sock]:
+            index = self._targets[sock]
+            if index is None:
+                replies += self.rack.receive_everywhere(payload, sender, now)
+            else:
                 replies += self.rack.receive(index, payload, sender, now)
 
     def send_reply(self, index: int, reply: Reply, processed: float) -> None:
         """Send ``reply`` through the unicast socket of board ``index`` (stats, refusals)."""
         payload = datagram(reply, processed, self.now())
         sock = self._unicast[index]
-        address = reply_address(reply.address, sock.getsockname()[0])
+        address = reply_address(reply.address, self._local[index])
         cause = send_loopback(sock, payload, address)
         if cause is None:
             self.stats.sent += 1
@@ -235,6 +254,7 @@ class Eth1394Server:
             sock.close()
         self._targets.clear()
         self._unicast.clear()
+        self._sockets.clear()
 
     def __enter__(self) -> Eth1394Server:
         return self

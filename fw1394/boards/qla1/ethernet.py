@@ -338,6 +338,21 @@ class EthernetPort:
         self._pending = waiting
         return actions
 
+    @property
+    def quiet(self) -> bool:
+        """Nothing of an earlier round in flight: no early hub broadcast kept, no hub read
+        waiting."""
+        return not self._stash and not self._pending
+
+    def answer_query(self, query: QuadletWriteRequest, sender: HostAddress, now: float) -> Reply:
+        """The unasked response to the Ethernet-only ``query`` (received at ``now`` from
+        ``sender``) once its round is complete on this hub: what :meth:`query_taken` and
+        the other boards' blocks end with, for a rack that served the round itself."""
+        self._broadcast_read = None
+        hub = self.board.hub
+        target = _BroadcastReadTarget(sender, query.tlabel, query.source_id, hub.sequence, now)
+        return self._broadcast_response(target, now)
+
     def _broadcast_response(self, target: _BroadcastReadTarget, now: float) -> Reply:
         # The responder's space is a ClockedBoard: setting the time never goes back.
         self.responder.space.set_time(int(now * TICKS_PER_SECOND))

@@ -19,7 +19,7 @@ model's choice.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from fw1394.boards.qla1.regs import (
     HUB_BOARD_INFO,
@@ -56,6 +56,11 @@ class HubBlock:
         )
 
 
+def reporting_board(block: Sequence[int]) -> int:
+    """Whose real-time block this is: the board ID in its status quadlet."""
+    return (block[STATUS] >> STATUS_BOARD_ID_SHIFT) & 0xF
+
+
 def _saturate16(ticks: int) -> int:
     return min(max(ticks, 0), 0xFFFF)
 
@@ -83,8 +88,15 @@ class HubState:
 
     def store(self, board_id: int, sequence: int, quadlets: Sequence[int], now: int) -> None:
         """Keep ``board_id``'s block; a newer block from the same board replaces it."""
+        self.keep(board_id, HubBlock(sequence, now - self.query_tick, tuple(quadlets)), now)
+
+    def keep(self, board_id: int, block: HubBlock, now: int) -> None:
+        """:meth:`store` of a block made already (blocks are frozen: hubs can share one)."""
+        update_ticks = now - self.query_tick
+        if block.update_ticks != update_ticks:
+            block = replace(block, update_ticks=update_ticks)
         self.blocks.pop(board_id, None)
-        self.blocks[board_id] = HubBlock(sequence, now - self.query_tick, tuple(quadlets))
+        self.blocks[board_id] = block
         self.last_update_tick = now
 
     def store_broadcast(self, words: Sequence[int], now: int) -> None:
@@ -95,8 +107,7 @@ class HubState:
         block = words[1 : 1 + count]
         if len(block) <= STATUS:
             return
-        board_id = (block[STATUS] >> STATUS_BOARD_ID_SHIFT) & 0xF
-        self.store(board_id, words[0] >> 16, block, now)
+        self.store(reporting_board(block), words[0] >> 16, block, now)
 
     @property
     def complete(self) -> bool:

@@ -7,7 +7,9 @@ and the others are reached through it over FireWire (bridge mode); from
 firmware 9 on every board has its own address, the first being the hub
 (the board nearest the host). Everything is synchronous: a forwarded request
 is answered, and a hub broadcast delivered, before :meth:`Rack.receive`
-returns.
+returns. A datagram for every port (:meth:`Rack.receive_everywhere`) that is
+the host's real-time cycle is served for all boards in one pass
+(:mod:`fw1394.boards.qla1.rack_fast`).
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from fw1394.boards.qla1.firewire import (
     is_hub_query,
     query_reaches_every_node,
 )
+from fw1394.boards.qla1.rack_fast import RackFastPath
 from fw1394.engine import JHU_FIRMWARE, Responder
 from fw1394.packets import BlockWriteRequest, Request, Response
 from fw1394.packets.fast import encode_packet
@@ -116,6 +119,7 @@ class Rack:
                 else None
             )
             self.members.append(RackBoard(board, responder, port))
+        self._fast = RackFastPath(self.members, firmware)
 
     @property
     def ports(self) -> list[tuple[int, EthernetPort]]:
@@ -135,6 +139,19 @@ class Rack:
         if port is None:
             return []
         return self._run(index, port.receive(payload, sender, now), now)
+
+    def receive_everywhere(
+        self, payload: bytes, sender: HostAddress, now: float
+    ) -> list[tuple[int, Reply]]:
+        """A datagram every cabled port gets (the host's broadcast or multicast), port by
+        port in index order; the host's real-time cycle in one pass (:mod:`.rack_fast`)."""
+        replies = self._fast.receive(payload, sender, now)
+        if replies is not None:
+            return replies
+        replies = []
+        for index, _ in self.ports:
+            replies += self.receive(index, payload, sender, now)
+        return replies
 
     def poll(self, now: float) -> list[tuple[int, Reply]]:
         replies: list[tuple[int, Reply]] = []

@@ -117,6 +117,33 @@ def decode_rev8_write(words: Sequence[int], start_index: int, board_id: int | No
     return RtWrite(tuple(dacs), tuple(control))
 
 
+def split_rev8_write(words: Sequence[int], start_index: int) -> dict[int, RtWrite]:
+    """Every board's :func:`decode_rev8_write` of one block write, in one pass.
+
+    Board ID -> its share; a board with no share is missing. The block chain
+    does not depend on the board that follows it, so one walk serves them all:
+    a broadcast carrying N boards' blocks is read once, not N times.
+    """
+    block_start, block_length, owner = 0, 0, -1
+    dacs: dict[int, list[tuple[int, int]]] = {}
+    control: dict[int, list[int]] = {}
+    for position, value in enumerate(words):
+        index = (start_index + position) & 0xFF  # the translator's 8-bit address
+        if index in (block_start, (block_start + block_length) & 0xFF):
+            block_start, block_length = index, value & 0xFF
+            owner = (value >> 8) & 0xF
+        elif owner < 0:
+            continue  # before the first block: nobody's
+        elif index == (block_start + block_length - 1) & 0xFF:
+            control.setdefault(owner, []).append(value)
+        else:
+            dacs.setdefault(owner, []).append(((index - block_start) & 0xF, value))
+    return {
+        board: RtWrite(tuple(dacs.get(board, ())), tuple(control.get(board, ())))
+        for board in dacs.keys() | control.keys()
+    }
+
+
 def decode_rev7_write(words: Sequence[int], board_id: int | None) -> RtWrite:
     """Rev 7: groups of 4 DAC commands (board id in bits 27..24) and a control quadlet.
 
