@@ -201,29 +201,28 @@ class MotorAxis:
         w_final = w_drive - direction * self._coulomb / (self._inertia * rate)
         if w_final * direction < 0.0 and math.log1p(w0 / -w_final) / rate < seconds:
             return False
-        gone = -math.expm1(-rate * seconds)
-        w1 = w_final + (w0 - w_final) * (1.0 - gone)
-        angle = self.angle_rad + w_final * seconds + (w0 - w_final) * gone / rate
+        angle, w1 = self._solution(seconds, rate, w0, w_final)
         if angle > self._stop or angle < -self._stop or self._regime(drive, w1)[3] != regime:
             return False
-        self.angle_rad = angle
-        self.velocity_rad_s = w1
-        if w1 != 0.0:
-            self.last_direction = 1 if w1 > 0 else -1
-        if angle < self.lowest_angle_rad:
-            self.lowest_angle_rad = angle
-        elif angle > self.highest_angle_rad:
-            self.highest_angle_rad = angle
+        self._land(angle, w1)
         return True
 
     def _move(self, seconds: float, rate: float, w0: float, w_final: float) -> None:
-        # Exact solution of dw/dt = rate * (w_final - w) over ``seconds``.
-        gone = -math.expm1(-rate * seconds)  # 1 - exp(-x) without cancellation
-        w1 = w_final + (w0 - w_final) * (1.0 - gone)
-        angle = self.angle_rad + w_final * seconds + (w0 - w_final) * gone / rate
+        angle, w1 = self._solution(seconds, rate, w0, w_final)
         if angle > self._stop or angle < -self._stop:
             angle = math.copysign(self._stop, angle)
             w1 = 0.0  # the hard stop absorbs the motion
+        self._land(angle, w1)
+
+    def _solution(
+        self, seconds: float, rate: float, w0: float, w_final: float
+    ) -> tuple[float, float]:
+        """(angle, speed) after ``seconds`` of dw/dt = rate * (w_final - w), exactly."""
+        gone = -math.expm1(-rate * seconds)  # 1 - exp(-x) without cancellation
+        w1 = w_final + (w0 - w_final) * (1.0 - gone)
+        return self.angle_rad + w_final * seconds + (w0 - w_final) * gone / rate, w1
+
+    def _land(self, angle: float, w1: float) -> None:
         self.angle_rad = angle
         self.velocity_rad_s = w1
         if w1 != 0.0:
