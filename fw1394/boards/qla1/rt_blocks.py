@@ -8,7 +8,7 @@ decoders here only say which registers to write; the board applies them.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
 from fw1394.boards.qla1.regs import CHANNELS, DAC_BOARD_ID_SHIFT, DAC_VALID
@@ -100,20 +100,14 @@ def decode_rev8_write(words: Sequence[int], start_index: int, board_id: int | No
     are skipped. Any block write in MAIN space goes through it. A
     ``board_id`` of None takes every block.
     """
-    block_start, block_length, local = 0, 0, False
     dacs: list[tuple[int, int]] = []
     control: list[int] = []
-    for position, value in enumerate(words):
-        index = (start_index + position) & 0xFF  # the translator's 8-bit address
-        if index in (block_start, (block_start + block_length) & 0xFF):
-            block_start, block_length = index, value & 0xFF
-            local = board_id is None or (value >> 8) & 0xF == board_id
-        elif not local:
-            continue
-        elif index == (block_start + block_length - 1) & 0xFF:
-            control.append(value)
-        else:
-            dacs.append(((index - block_start) & 0xF, value))
+    for owner, channel, value in _rev8_quadlets(words, start_index):
+        if board_id is None or owner == board_id:
+            if channel < 0:
+                control.append(value)
+            else:
+                dacs.append((channel, value))
     return RtWrite(tuple(dacs), tuple(control))
 
 
@@ -124,24 +118,35 @@ def split_rev8_write(words: Sequence[int], start_index: int) -> dict[int, RtWrit
     does not depend on the board that follows it, so one walk serves them all:
     a broadcast carrying N boards' blocks is read once, not N times.
     """
-    block_start, block_length, owner = 0, 0, -1
     dacs: dict[int, list[tuple[int, int]]] = {}
     control: dict[int, list[int]] = {}
+    for owner, channel, value in _rev8_quadlets(words, start_index):
+        if channel < 0:
+            control.setdefault(owner, []).append(value)
+        else:
+            dacs.setdefault(owner, []).append((channel, value))
+    return {
+        board: RtWrite(tuple(dacs.get(board, ())), tuple(control.get(board, ())))
+        for board in dacs.keys() | control.keys()
+    }
+
+
+def _rev8_quadlets(words: Sequence[int], start_index: int) -> Iterator[tuple[int, int, int]]:
+    """(owner board, DAC channel or -1 for the control word, value) of every quadlet
+    the address translator routes to a board; headers and words before the first
+    block are nobody's."""
+    block_start, block_length, owner = 0, 0, -1
     for position, value in enumerate(words):
         index = (start_index + position) & 0xFF  # the translator's 8-bit address
         if index in (block_start, (block_start + block_length) & 0xFF):
             block_start, block_length = index, value & 0xFF
             owner = (value >> 8) & 0xF
         elif owner < 0:
-            continue  # before the first block: nobody's
+            continue
         elif index == (block_start + block_length - 1) & 0xFF:
-            control.setdefault(owner, []).append(value)
+            yield owner, -1, value
         else:
-            dacs.setdefault(owner, []).append(((index - block_start) & 0xF, value))
-    return {
-        board: RtWrite(tuple(dacs.get(board, ())), tuple(control.get(board, ())))
-        for board in dacs.keys() | control.keys()
-    }
+            yield owner, (index - block_start) & 0xF, value
 
 
 def decode_rev7_write(words: Sequence[int], board_id: int | None) -> RtWrite:
