@@ -208,8 +208,7 @@ class Board(RobotIO):
 
     def set_motor_voltages(self, values: Sequence[int]) -> None:
         """Buffer every axis's motor command at once (DAC codes, as :meth:`set_motor_voltage`)."""
-        if len(values) != self._channels:
-            raise ValueError(f"{len(values)} motor commands for {self._channels} axes")
+        self._one_per_axis(values)
         self._commands = [_checked(value, DAC_MAX, "DAC code") for value in values]
 
     # --- immediate writes ---------------------------------------------------

@@ -109,8 +109,7 @@ class MultiBoard(RobotIO):
         board.set_motor_voltage(local, value)
 
     def set_motor_voltages(self, values: Sequence[int]) -> None:
-        if len(values) != len(self._axes):
-            raise ValueError(f"{len(values)} motor commands for {len(self._axes)} axes")
+        self._one_per_axis(values)
         first = 0
         for board in self.boards:
             board.set_motor_voltages(values[first : first + board.num_axes])

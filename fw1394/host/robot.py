@@ -100,10 +100,13 @@ class RobotIO(ABC):
 
     def set_motor_voltages(self, values: Sequence[int]) -> None:
         """:meth:`set_motor_voltage` of every axis: ``values[axis]`` for each axis."""
-        if len(values) != self.num_axes:
-            raise ValueError(f"{len(values)} motor commands for {self.num_axes} axes")
+        self._one_per_axis(values)
         for axis, value in enumerate(values):
             self.set_motor_voltage(axis, value)
+
+    def _one_per_axis(self, values: Sequence[int]) -> None:
+        if len(values) != self.num_axes:
+            raise ValueError(f"{len(values)} motor commands for {self.num_axes} axes")
 
     @abstractmethod
     def set_motor_current(self, axis: int, value: int) -> None:

@@ -168,12 +168,10 @@ class Express:
                     solo.finish(now)
                     if response_class is not WriteResponse:  # the link acks the response
                         station.send(ACK, phy, _pack_ack(_COMPLETE, label, 0, header.sequence))
-                    link = self.link
-                    if now >= link.due or now >= station.wake_by:
-                        try:
-                            link.service(now)
-                        except BusRefusedError as error:
-                            raise host.refused(error) from None
+                    try:
+                        self.link.keep_timers(now)
+                    except BusRefusedError as error:
+                        raise host.refused(error) from None
                     host.after_turn(now)
                     return data
         # Not the common end: the requester takes the transaction over, as if it had

@@ -110,7 +110,11 @@ class LinkLayer:
             self.due = min(self.due, station.next_deadline())
         else:
             self.receive(frame[0], frame[1], now)
-        if now >= self.due or now >= station.wake_by:
+        self.keep_timers(now)
+
+    def keep_timers(self, now: float) -> None:
+        """Run the station's timers if any is due at ``now``."""
+        if now >= self.due or now >= self._station().wake_by:
             self.service(now)
 
     def receive(self, header: FrameHeader, payload: bytes, now: float) -> None:
