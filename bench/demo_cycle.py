@@ -32,6 +32,7 @@ from fw1394.boards.snake2010.board import Snake2010Board
 from fw1394.boards.snake2010.physics import MotorAxis
 from fw1394.boards.snake2010.rt_blocks import realtime_read_length
 from fw1394.boards.snake2010.spec import ENCODER_MIDPOINT
+from fw1394.cli.dissect import positive
 from fw1394.demo.run import AXES_PER_BOARD, GAINS, trajectory
 from fw1394.engine import Responder
 from fw1394.engine.fast_responder import FastResponder
@@ -184,8 +185,8 @@ def timed(piece: Piece, cycles: int) -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--rounds", type=int, default=4, help="A/B pairs per piece")
-    parser.add_argument("--cycles", type=int, default=2000, help="cycles per round")
+    parser.add_argument("--rounds", type=positive, default=4, help="A/B pairs per piece")
+    parser.add_argument("--cycles", type=positive, default=2000, help="cycles per round")
     args = parser.parse_args()
     pairs: list[tuple[str, Piece, str, Piece]] = [
         ("host servo law, whole-robot calls", servo_law(MultiBoard),

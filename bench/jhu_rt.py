@@ -35,6 +35,8 @@ import textwrap
 from collections.abc import Iterator
 from pathlib import Path
 
+from fw1394.cli.dissect import positive
+
 HERE = Path(__file__).resolve().parents[1]
 
 RUN = textwrap.dedent(
@@ -99,8 +101,12 @@ def checkout(ref: str) -> Iterator[Path]:
     """A temporary git worktree of ``ref`` (detached), removed afterwards."""
     place = Path(tempfile.mkdtemp(prefix="jhu-rt-before-")) / "tree"
     git = ["git", "-C", str(HERE)]
-    subprocess.run([*git, "worktree", "add", "--detach", str(place), ref], check=True,
-                   capture_output=True)  # fmt: skip
+    made = subprocess.run([*git, "worktree", "add", "--detach", str(place), ref],
+                          capture_output=True, text=True)  # fmt: skip
+    if made.returncode:
+        shutil.rmtree(place.parent, ignore_errors=True)
+        last = (made.stderr.strip().splitlines() or ["git worktree add failed"])[-1]
+        sys.exit(f"jhu_rt.py: --before {ref}: {last}")
     try:
         yield place
     finally:
@@ -130,10 +136,10 @@ def span(values: list[float], digits: int = 0) -> str:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--boards", type=int, nargs="+", default=[1, 4, 8])
-    parser.add_argument("--cycles", type=int, default=2000)
+    parser.add_argument("--boards", type=positive, nargs="+", default=[1, 4, 8])
+    parser.add_argument("--cycles", type=positive, default=2000)
     parser.add_argument("--protocol", default="broadcast-read-write")
-    parser.add_argument("--rounds", type=int, default=1, help="runs per board count and side")
+    parser.add_argument("--rounds", type=positive, default=1, help="runs per board count and side")
     parser.add_argument("--before", metavar="REF", help="git ref run as the baseline, ABAB")
     args = parser.parse_args()
     namespace = os.geteuid() == 0 and shutil.which("unshare") is not None
