@@ -161,7 +161,7 @@ def interleaved(
     return samples
 
 
-# -- mechanisms: why one multicast group with a kernel filter -----------------------------
+# -- mechanisms: why multicast groups with a kernel filter ---------------------------------
 def _forked(loop: Callable[[], None]) -> int:
     pid = os.fork()
     if pid == 0:
@@ -201,7 +201,8 @@ def multicast_ping_pong(idle: int, filtered: bool, count: int) -> dict[str, floa
 
         return loop
 
-    pids = [_forked(listener(10 + k, False)) for k in range(idle)]
+    idle_phys = [phy for phy in range(63) if phy not in (1, 2)][:idle]
+    pids = [_forked(listener(phy, False)) for phy in idle_phys]
     me = _group_socket(config, 101, 1, filtered)
     pids.append(_forked(listener(2, True)))
     try:

@@ -1,4 +1,10 @@
-"""Where a virtual bus lives: its multicast group, UDP port and tag, all from its name.
+"""Where a virtual bus lives: its multicast groups, UDP port and tag, all from its name.
+
+A bus has one group for what every member hears (broadcast, bus management)
+and :data:`SHARDS` more for frames addressed to one node: a frame to physical
+ID ``p`` travels on shard ``p mod SHARDS``, so the kernel copies it only to the
+few members of that shard (and to taps, which join every group) instead of to
+all 63.
 
 Several buses run side by side because each name hashes to its own group and
 port, and every frame carries a 32-bit tag of the name so that two names that
@@ -20,6 +26,10 @@ GROUP_PREFIX = (239, 255)
 PORT_BASE = 20_000
 PORT_SPAN = 10_000
 LOOPBACK = "127.0.0.1"
+#: Groups for addressed frames. A tap joins all of them and the bus group: 17
+#: memberships, inside Linux's default limit of 20 per socket
+#: (``net.ipv4.igmp_max_memberships``).
+SHARDS = 16
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,62}$")
 
 
@@ -62,6 +72,11 @@ class BusConfig:
         return _derived(self.name)[0]
 
     @property
+    def shard_groups(self) -> tuple[str, ...]:
+        """The groups of addressed frames: physical ID ``p`` listens on ``[p % SHARDS]``."""
+        return _derived_shards(self.name)
+
+    @property
     def port(self) -> int:
         return _derived(self.name)[1]
 
@@ -79,3 +94,12 @@ def _derived(name: str) -> tuple[str, int, int]:
     group = f"{GROUP_PREFIX[0]}.{GROUP_PREFIX[1]}.{digest[0]}.{1 + digest[1] % 254}"
     port = PORT_BASE + int.from_bytes(digest[2:4], "big") % PORT_SPAN
     return group, port, int.from_bytes(digest[4:8], "big")
+
+
+@functools.cache
+def _derived_shards(name: str) -> tuple[str, ...]:
+    # The addresses after the bus group's (wrapping inside 1..254), so that one
+    # bus's groups are one short run of addresses.
+    group = _derived(name)[0]
+    prefix, last = group.rsplit(".", 1)
+    return tuple(f"{prefix}.{1 + (int(last) + shard) % 254}" for shard in range(SHARDS))

@@ -1,8 +1,15 @@
-"""The shared medium: one UDP socket in the bus's multicast group.
+"""The shared medium: one UDP socket in the bus's multicast groups.
 
-Every member sends each frame once to the group; the kernel copies it to every
-member socket (on loopback, and over a LAN with ``ttl`` >= 1), which is what a
-1394 PHY's repeating of every packet gives a real bus.
+Every member sends each frame once; the kernel copies it to the member sockets
+of its group (on loopback, and over a LAN with ``ttl`` >= 1), which is what a
+1394 PHY's repeating of every packet gives a real bus. A frame for every member
+or for broadcast goes to the bus group, which every member joins; a frame
+addressed to one node goes to that node's shard group
+(:data:`~fw1394.transport.config.SHARDS`), which only its shard's members and
+the taps join: the kernel then copies it to a few sockets instead of all 63,
+and the link's filter (:mod:`fw1394.transport.bpf`) drops the shard's others.
+A tap joins every group on one socket, so it still reads the bus as one
+stream in the order the kernel took the frames.
 """
 
 from __future__ import annotations
@@ -11,9 +18,11 @@ import socket
 import struct
 import time
 
+from fw1394.packets.nodeid import BROADCAST_PHY
 from fw1394.transport import bpf
-from fw1394.transport.config import BusConfig
+from fw1394.transport.config import SHARDS, BusConfig
 from fw1394.transport.idle import BLOCK, IdleStrategy, Waiter
+from fw1394.transport.wire import DESTINATION_OFFSET
 
 #: Room for bursts (a 63-node self-ID phase, back-to-back block responses).
 RECEIVE_BUFFER = 1 << 21
@@ -23,6 +32,7 @@ IP_MULTICAST_ALL = 49
 SO_TIMESTAMPNS = 35
 _TIMESPEC = struct.Struct("@qq")
 _DONTWAIT = socket.MSG_DONTWAIT
+_DESTINATION = DESTINATION_OFFSET
 
 
 class Medium:
@@ -37,6 +47,14 @@ class Medium:
     ) -> None:
         self.config = config
         self.destination = (config.group, config.port)
+        shards = [(group, config.port) for group in config.shard_groups]
+        #: Where a frame goes, by its destination byte: a node's shard, else the bus group.
+        self.destinations = tuple(
+            shards[byte % SHARDS] if byte < BROADCAST_PHY else self.destination
+            for byte in range(256)
+        )
+        #: The shard groups this socket has joined (the bus group it always has).
+        self._shards: set[str] = set()
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
             self._configure(sock, poll_interval)
@@ -57,9 +75,10 @@ class Medium:
         interface = socket.inet_aton(cfg.interface)
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, RECEIVE_BUFFER)
+        # Only the groups this socket joins come in, not every group on the host;
+        # bound to no address, because one socket hears several groups.
         sock.setsockopt(socket.IPPROTO_IP, IP_MULTICAST_ALL, 0)
-        # Bound to the group address: datagrams of other groups on the port stay out.
-        sock.bind((cfg.group, cfg.port))
+        sock.bind(("", cfg.port))
         sock.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP, group + interface)
         sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_IF, interface)
         sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, cfg.ttl)
@@ -77,10 +96,27 @@ class Medium:
         timeval = struct.pack("@ll", micros // 1_000_000, micros % 1_000_000)
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVTIMEO, timeval)
 
+    def _listen_on(self, groups: set[str]) -> None:
+        # Joins first: a frame to the new address may be on its way already.
+        interface = socket.inet_aton(self.config.interface)
+        for option, changed in (
+            (socket.IP_ADD_MEMBERSHIP, groups - self._shards),
+            (socket.IP_DROP_MEMBERSHIP, self._shards - groups),
+        ):
+            for group in sorted(changed):
+                self.sock.setsockopt(socket.IPPROTO_IP, option, socket.inet_aton(group) + interface)
+        self._shards = groups
+
     def filter_as_member(self, member_id: int, phy_id: int | None, drop_acks: bool) -> None:
+        """Hear what a node with ``phy_id`` (0-62) hears (None: bus-wide frames only)."""
+        if phy_id is not None and not 0 <= phy_id < BROADCAST_PHY:
+            raise ValueError(f"physical ID {phy_id} is not a node's (0-62)")
+        self._listen_on(set() if phy_id is None else {self.destinations[phy_id][0]})
         bpf.attach(self.sock, self.config.tag, member_id, phy_id, drop_acks)
 
     def filter_as_tap(self) -> None:
+        """Hear every frame of the bus, with its kernel arrival time."""
+        self._listen_on(set(self.config.shard_groups))
         bpf.attach(self.sock, self.config.tag, None, None)
         self.sock.setsockopt(socket.SOL_SOCKET, SO_TIMESTAMPNS, 1)
 
@@ -89,7 +125,7 @@ class Medium:
         # wire; the transaction layer's retries and timeouts deal with it. A try
         # statement costs nothing here, contextlib.suppress a context manager per frame.
         try:  # noqa: SIM105
-            self._sendto(frame, self.destination)
+            self._sendto(frame, self.destinations[frame[_DESTINATION]])
         except (BlockingIOError, InterruptedError):
             pass
         if self._traffic is not None:
