@@ -4,6 +4,7 @@
     python bench/bus.py --quick    # fewer samples and bus sizes
     python bench/bus.py --json     # one JSON object instead of the report
     python bench/bus.py --mac      # what the keyed MAC costs per frame and per read
+    python bench/bus.py --syscalls # CPU per sendto / recv: the floor of a read's CPU
     python bench/bus.py --idle block   # every process of the run blocks in recv
 
 Measures, between this process (the host) and node processes on loopback:
@@ -36,7 +37,7 @@ from fw1394.packets.fast import encode_packet
 from fw1394.transport.bus_port import BusPort
 from fw1394.transport.config import BusConfig
 from fw1394.transport.idle import Waiter, default_idle, parse_idle
-from fw1394.transport.medium import Medium
+from fw1394.transport.medium import MAX_FRAME, Medium
 from fw1394.transport.membership import Timing
 from fw1394.transport.wire import AckPayload, FrameHeader, FrameKind, ack_byte
 
@@ -502,6 +503,57 @@ def mac_cost(quick: bool) -> dict[str, Any]:
     return {"per_frame": per_frame, "quadlet_read": reads, "keyed_vs_insecure_p50": round(ratio, 3)}
 
 
+def syscall_costs(rounds: int, count: int = 1000) -> dict[str, Any]:
+    """CPU per system call of a bus member's data path, and the least a read can cost.
+
+    Two members of one bus in this process: ``sendto`` of a request-sized frame
+    (its delivery into the receiver's socket is charged to the sender, in the
+    kernel), ``recv`` of a queued frame, and a poll that finds nothing (what an
+    adaptive member pays per try). A quadlet read makes the host send twice (the
+    request and its ack of the response) and receive once, the node receive once
+    and send once: their sums are the CPU floor of a read before any Python work
+    or wake-up. ``count`` frames per round stay well inside the socket's buffer.
+    """
+    config = BusConfig(f"sys{os.getpid()}")
+    sender, receiver = Medium(config), Medium(config)
+    sender.filter_as_member(101, 1, False)
+    receiver.filter_as_member(102, 2, False)
+    frame = FrameHeader(FrameKind.async_packet, config.tag, 101, 0, 1, 2).pack() + bytes(16)
+    recv = receiver.sock.recv
+    clock = time.process_time_ns
+    totals = {"sendto_us": 0, "recv_queued_us": 0, "recv_empty_us": 0}
+    try:
+        for _ in range(rounds):
+            start = clock()
+            for _ in range(count):
+                sender.send(frame)
+            middle = clock()
+            for _ in range(count):
+                recv(MAX_FRAME, socket.MSG_DONTWAIT)  # raises if a frame was lost
+            end = clock()
+            for _ in range(count):
+                # As the members poll: a try statement, not a context manager per call.
+                try:  # noqa: SIM105
+                    recv(MAX_FRAME, socket.MSG_DONTWAIT)
+                except BlockingIOError:
+                    pass
+            totals["sendto_us"] += middle - start
+            totals["recv_queued_us"] += end - middle
+            totals["recv_empty_us"] += clock() - end
+    finally:
+        sender.close()
+        receiver.close()
+    per_call = {key: round(ns / rounds / count / 1e3, 2) for key, ns in totals.items()}
+    send, take = per_call["sendto_us"], per_call["recv_queued_us"]
+    return {
+        **per_call,
+        "read_floor_host_us": round(2 * send + take, 2),
+        "read_floor_node_us": round(send + take, 2),
+        "goal_host_us": 10,
+        "goal_node_us": 8,
+    }
+
+
 def report(results: dict[str, Any]) -> None:
     raw = results["raw_udp"]["p50_us"]
     read = results["quadlet_read"]["p50_us"]
@@ -577,6 +629,11 @@ def main() -> int:
         help="compare transports (unicast, hub relay, multicast with and without filter)",
     )
     parser.add_argument(
+        "--syscalls",
+        action="store_true",
+        help="CPU per sendto and recv on the bus, and the CPU floor of a quadlet read",
+    )
+    parser.add_argument(
         "--mac",
         action="store_true",
         help="cost of the keyed MAC: per frame, and quadlet reads keyed vs insecure",
@@ -584,6 +641,9 @@ def main() -> int:
     args = parser.parse_args()
     if args.mac:
         print(json.dumps(mac_cost(args.quick), indent=1))
+        return 0
+    if args.syscalls:
+        print(json.dumps(syscall_costs(5 if args.quick else 40), indent=1))
         return 0
     if args.mechanisms:
         print(json.dumps(mechanisms(2000 if args.quick else 5000), indent=1))
