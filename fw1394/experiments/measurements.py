@@ -6,11 +6,19 @@ import random
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import partial
+from typing import Protocol
 
+from fw1394.experiments.baseline import Baseline, merged
 from fw1394.experiments.bench_targets import BusTarget, Target
 from fw1394.experiments.phase_progress import Progress
 from fw1394.experiments.private_bus import PrivateBus
-from fw1394.experiments.timing import FailureBudget, collector_paused, time_calls, time_one
+from fw1394.experiments.timing import (
+    SWITCH_WARMUP,
+    FailureBudget,
+    collector_paused,
+    time_calls,
+    time_one,
+)
 
 
 @dataclass(frozen=True)
@@ -83,6 +91,61 @@ def measure_blocks(
                     progress.update(sweep * len(order) + done)
     progress.finish()
     return BlockRun(sorted(order), passes, reads, writes, budget.failures)
+
+
+class RawRounds(Protocol):
+    """Rounds of the raw ping-pong (:class:`~fw1394.experiments.baseline.Echo`)."""
+
+    def round(self, count: int, *, warmup: int = 0) -> Baseline: ...
+
+
+def measure_blocks_interleaved(
+    target: Target,
+    raw: RawRounds,
+    sizes: Sequence[int],
+    passes: int,
+    *,
+    raw_count: int,
+    warmup: int,
+    progress: Progress,
+) -> tuple[BlockRun, Baseline]:
+    """``passes`` sweeps over ``sizes``, each after a round of ``raw_count`` raw round trips.
+
+    Returns the block times and the raw rounds of these same minutes: the
+    unit of the block figures (raw, pass, raw, pass ...). The first pass
+    starts after ``warmup`` uncounted transactions, every later round, raw or
+    block, after :data:`SWITCH_WARMUP`.
+    """
+    passes_run: list[BlockRun] = []
+    floors: list[Baseline] = []
+    progress.start("block reads and writes, interleaved", passes)
+    for number in range(passes):
+        floors.append(raw.round(raw_count, warmup=SWITCH_WARMUP))
+        passes_run.append(
+            measure_blocks(
+                target,
+                sizes,
+                1,
+                warmup=warmup if number == 0 else SWITCH_WARMUP,
+                progress=Progress(enabled=False),
+                seed=1394 + number,
+            )
+        )
+        progress.update(number + 1)
+    progress.finish()
+    return _merged_blocks(passes_run), merged(floors)
+
+
+def _merged_blocks(passes: list[BlockRun]) -> BlockRun:
+    reads: dict[int, list[float]] = {}
+    writes: dict[int, list[float]] = {}
+    for run in passes:
+        for size in run.sizes:
+            reads.setdefault(size, []).extend(run.read[size])
+            writes.setdefault(size, []).extend(run.write[size])
+    return BlockRun(
+        passes[0].sizes, len(passes), reads, writes, sum(run.failures for run in passes)
+    )
 
 
 @dataclass(frozen=True)

@@ -44,6 +44,13 @@ def _heading(digest: dict[str, Any]) -> str:
         f"{base['block_round_trip']['p50_us']:.1f} us ({base['block_mbit_s']:.0f} Mbit/s "
         "one at a time)",
     ]
+    block = digest.get("block")
+    if block:
+        lines.append(
+            "block figures: x raw of the rounds interleaved with the block passes, p50 "
+            f"{block['raw_round_trip_p50_us']:.1f} us ({block['raw_block_round_trip_p50_us']:.1f} "
+            f"with a 2048-byte reply); {block['fit']}"
+        )
     if not target.get("writes_acknowledged", True):
         lines.append(
             "note: Eth1394 writes are not answered; a write's time is its send time, as the "
@@ -105,6 +112,13 @@ def _block_rows(digest: dict[str, Any]) -> list[Row]:
                 f"block {name}, throughput (slope)",
                 f"{theirs['mbit_s']:.0f} Mbit/s",
                 "-" if mbit is None else f"{mbit:.0f} Mbit/s",
+                "",
+            ),
+            (
+                f"block {name}, fit: r², residual / sample IQR",
+                "-",
+                f"{ours['r_squared']:.2f}, {ours['residual_iqr_us']:.1f} / "
+                f"{ours['sample_iqr_us']:.1f} us",
                 "",
             ),
         ]

@@ -2,17 +2,23 @@
 
 Every latency is also given as a multiple of the raw UDP round trip of the
 same run (its median, ``baseline.round_trip.p50_us``): keys starting with
-``x_``. The 512-quadlet block times (``x_512``) are divided by the raw round
-trip with a 2048-byte reply instead. A throughput has no raw counterpart:
-on loopback the 2048 bytes themselves cost next to nothing.
+``x_``. The block figures (``x_base``, the block servo cycle) are divided by
+the raw rounds interleaved with the block passes alone
+(``block.raw_round_trip_p50_us``), the 512-quadlet block times (``x_512``) by
+those rounds' round trip with a 2048-byte reply
+(``block.raw_block_round_trip_p50_us``). A throughput has no raw
+counterpart: on loopback the 2048 bytes themselves cost next to nothing.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from fw1394.experiments import servo, thesis
 from fw1394.experiments.bands import find_bands
+from fw1394.experiments.baseline import Baseline
 from fw1394.experiments.fit import LineFit, fit_medians
 from fw1394.experiments.measurements import BlockRun, QuadletRun, ScalePoint
 from fw1394.experiments.run import BenchResult
@@ -21,6 +27,7 @@ from fw1394.experiments.summary import summarize
 #: The largest S400 block, compared with a raw UDP round trip carrying as much.
 LARGEST = thesis.BLOCK_MAX_QUADLETS
 STALL_US = 1000.0
+FIT_METHOD = "theil-sen line through the median of each size"
 
 
 def digest(result: BenchResult) -> dict[str, Any]:
@@ -33,15 +40,17 @@ def digest(result: BenchResult) -> dict[str, Any]:
         "thesis": thesis_numbers(),
     }
     fits: dict[str, LineFit] = {}
+    block_unit = unit
     if result.quadlets is not None:
         out["quadlet"] = quadlet_section(result.quadlets, unit)
-    if result.blocks is not None:
+    if result.blocks is not None and result.block_baseline is not None:
         fits = {
             "read": fit_medians(result.blocks.read),
             "write": fit_medians(result.blocks.write),
         }
-        out["block"] = block_section(result.blocks, fits, unit, result.baseline.block_unit_us)
-    out["servo"] = servo_section(result.quadlets, fits, unit)
+        block_unit = result.block_baseline.unit_us
+        out["block"] = block_section(result.blocks, fits, result.block_baseline)
+    out["servo"] = servo_section(result.quadlets, fits, unit, block_unit)
     if result.scale or result.scale_skipped:
         out["scale"] = scale_section(result.scale, unit, result.scale_skipped)
     return out
@@ -85,14 +94,19 @@ def quadlet_section(run: QuadletRun, unit: float) -> dict[str, Any]:
     return section
 
 
-def block_section(
-    run: BlockRun, fits: dict[str, LineFit], unit: float, block_unit: float
-) -> dict[str, Any]:
-    """Fits, medians by size, and the largest size against raw UDP with a 2048-byte reply."""
+def block_section(run: BlockRun, fits: dict[str, LineFit], floor: Baseline) -> dict[str, Any]:
+    """Fits, medians by size, and the largest size against raw UDP with a 2048-byte reply.
+
+    ``floor`` is the raw rounds interleaved with the block passes.
+    """
+    unit, block_unit = floor.unit_us, floor.block_unit_us
     section: dict[str, Any] = {
         "sizes": run.sizes,
         "passes": run.passes,
         "failures": run.failures,
+        "fit": FIT_METHOD,
+        "raw_round_trip_p50_us": round(unit, 2),
+        "raw_block_round_trip_p50_us": round(block_unit, 2),
     }
     for name, samples in (("read", run.read), ("write", run.write)):
         fit = fits[name]
@@ -100,6 +114,9 @@ def block_section(
             **fit.as_dict(),
             "x_base": round(fit.base_us / unit, 2),
             "median_us": [round(summarize(samples[size]).p50_us, 2) for size in run.sizes],
+            "samples_per_size": min(len(samples[size]) for size in run.sizes),
+            # How far apart one size's own samples typically lie (the median size's IQR).
+            "sample_iqr_us": round(float(np.median([_iqr(samples[s]) for s in run.sizes])), 2),
         }
         if LARGEST in samples:
             largest = summarize(samples[LARGEST]).p50_us
@@ -108,8 +125,13 @@ def block_section(
     return section
 
 
+def _iqr(samples: list[float]) -> float:
+    low, high = np.percentile(samples, [25, 75])
+    return float(high - low)
+
+
 def servo_section(
-    quadlets: QuadletRun | None, fits: dict[str, LineFit], unit: float
+    quadlets: QuadletRun | None, fits: dict[str, LineFit], unit: float, block_unit: float
 ) -> dict[str, Any]:
     section: dict[str, Any] = {
         "axes": thesis.SERVO_AXES,
@@ -129,7 +151,7 @@ def servo_section(
         cycle = servo.block_loop_us(fits["read"], fits["write"])
         section["block"] = {
             **servo.budget("block", cycle).as_dict(),
-            "x_cycle": round(cycle / unit, 2),
+            "x_cycle": round(cycle / block_unit, 2),
         }
     return section
 

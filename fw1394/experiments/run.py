@@ -16,7 +16,7 @@ from fw1394.experiments.measurements import (
     BlockRun,
     QuadletRun,
     ScalePoint,
-    measure_blocks,
+    measure_blocks_interleaved,
     measure_quadlets,
     measure_scale,
 )
@@ -24,7 +24,7 @@ from fw1394.experiments.phase_progress import Progress
 from fw1394.experiments.private_bus import PrivateBus
 from fw1394.experiments.run_settings import Settings
 from fw1394.experiments.summary import summarize
-from fw1394.experiments.timing import cpu_split, pin
+from fw1394.experiments.timing import SWITCH_WARMUP, cpu_split, pin
 from fw1394.transport.idle import default_idle
 
 #: Rounds the baseline and the quadlet figures alternate in.
@@ -41,6 +41,8 @@ class BenchResult:
     baseline: Baseline
     quadlets: QuadletRun | None = None
     blocks: BlockRun | None = None
+    #: The raw rounds interleaved with the block passes: the unit of the block figures.
+    block_baseline: Baseline | None = None
     scale: list[ScalePoint] = field(default_factory=list)
     scale_skipped: str | None = None
 
@@ -128,7 +130,7 @@ def _interleaved(
     runs: list[QuadletRun] = []
     progress.start("raw UDP ping-pong and quadlets, interleaved", ROUNDS)
     for number in range(ROUNDS):
-        warmup = settings.warmup if number == 0 else 0
+        warmup = settings.warmup if number == 0 else SWITCH_WARMUP
         floors.append(echo.round(max(settings.baseline_iterations // ROUNDS, 10), warmup=warmup))
         iterations = max(settings.quadlet_iterations // ROUNDS, 10)
         runs.append(measure_quadlets(target, iterations, warmup=warmup, progress=quiet))
@@ -152,27 +154,16 @@ def _the_rest(
     progress: Progress,
 ) -> None:
     if settings.runs("block"):
-        # A pass over every size per round, a baseline round between passes: the
-        # block figures' unit comes from the same minutes as they do.
-        passes: list[BlockRun] = []
-        floors = [result.baseline]
-        progress.start("block reads and writes, interleaved", settings.block_passes)
-        for number in range(settings.block_passes):
-            floors.append(echo.round(max(settings.baseline_iterations // ROUNDS, 10)))
-            passes.append(
-                measure_blocks(
-                    target,
-                    settings.block_sizes,
-                    1,
-                    warmup=min(settings.warmup, 100) if number == 0 else 0,
-                    progress=Progress(enabled=False),
-                    seed=1394 + number,
-                )
-            )
-            progress.update(number + 1)
-        progress.finish()
-        result.baseline = baseline.merged(floors)
-        result.blocks = _merged_blocks(passes)
+        result.blocks, result.block_baseline = measure_blocks_interleaved(
+            target,
+            echo,
+            settings.block_sizes,
+            settings.block_passes,
+            raw_count=max(settings.baseline_iterations // ROUNDS, 10),
+            warmup=min(settings.warmup, 100),
+            progress=progress,
+        )
+        result.baseline = baseline.merged([result.baseline, result.block_baseline])
     if settings.runs("scale"):
         if bus is None:
             result.scale_skipped = (
@@ -187,15 +178,3 @@ def _the_rest(
                 warmup=min(settings.warmup, 200),
                 progress=progress,
             )
-
-
-def _merged_blocks(passes: list[BlockRun]) -> BlockRun:
-    first = passes[0]
-    merged = BlockRun(first.sizes, len(passes))
-    for run in passes:
-        for size in run.sizes:
-            merged.read.setdefault(size, []).extend(run.read.get(size, []))
-            merged.write.setdefault(size, []).extend(run.write.get(size, []))
-    return BlockRun(
-        first.sizes, len(passes), merged.read, merged.write, sum(r.failures for r in passes)
-    )

@@ -39,7 +39,8 @@ QUICK = Settings(
     quadlet_iterations=1000,
     warmup=100,
     block_sizes=(1, 2, 4, 8, 16, 32, 64, 128, 256, 512),
-    block_passes=3,
+    # Twenty samples a size: a size's median stays put when a few of them stall.
+    block_passes=20,
     baseline_iterations=1000,
     scale_boards=(1, 2, 4),
     scale_iterations=300,

@@ -17,6 +17,11 @@ FAILURE_ALLOWANCE = 20
 #: This many failures in a row: the target has gone (a node that crashed, a stopped server).
 CONSECUTIVE_LIMIT = 8
 PROGRESS_EVERY = 256
+#: Calls made and thrown away at the start of every round after a run's first, raw or
+#: target: the first transactions after a switch wake a peer that slept through the
+#: other half's round (80-300 us instead of 30-60), a cost of the interleaving
+#: itself, not of what the round measures.
+SWITCH_WARMUP = 10
 
 
 class TargetError(RuntimeError):

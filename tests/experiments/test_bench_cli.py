@@ -61,16 +61,16 @@ def test_quick_run_on_a_fresh_virtual_bus(capsys: pytest.CaptureFixture[str]) ->
     }
     assert result["settings"]["quadlet_iterations"] == 1000
     check_quadlets(result, 1000)
-    unit = result["baseline"]["round_trip"]["p50_us"]
     block = result["block"]
     assert block["sizes"] == [1, 2, 4, 8, 16, 32, 64, 128, 256, 512]
+    block_unit = block["raw_round_trip_p50_us"]
     for name in ("read", "write"):
         fit = block[name]
-        assert fit["base_us"] > 0 and fit["points"] == 10
-        assert fit["x_base"] == pytest.approx(fit["base_us"] / unit, abs=0.01, rel=0.01)
+        assert fit["base_us"] > 0 and fit["points"] == 10 and fit["samples_per_size"] == 20
+        assert fit["x_base"] == pytest.approx(fit["base_us"] / block_unit, abs=0.01, rel=0.01)
         assert len(fit["median_us"]) == 10 and min(fit["median_us"]) > 0
         assert fit["x_512"] == pytest.approx(
-            fit["p50_512_us"] / result["baseline"]["block_round_trip"]["p50_us"], rel=0.01
+            fit["p50_512_us"] / block["raw_block_round_trip_p50_us"], rel=0.01
         )
     servo = result["servo"]
     means = result["quadlet"]["read"]["mean_us"] + result["quadlet"]["write"]["mean_us"]

@@ -133,8 +133,8 @@ def test_the_thesis_servo_arithmetic() -> None:
 
 
 def test_the_block_cycle_uses_the_real_time_block_sizes() -> None:
-    read = LineFit(thesis.BLOCK_READ_BASE_US, 32 / thesis.BLOCK_READ_MBIT_S, 1.0, 512)
-    write = LineFit(thesis.BLOCK_WRITE_BASE_US, 32 / thesis.BLOCK_WRITE_MBIT_S, 1.0, 512)
+    read = LineFit(thesis.BLOCK_READ_BASE_US, 32 / thesis.BLOCK_READ_MBIT_S, 1.0, 0.0, 512)
+    write = LineFit(thesis.BLOCK_WRITE_BASE_US, 32 / thesis.BLOCK_WRITE_MBIT_S, 1.0, 0.0, 512)
     # 32-quadlet read + 7-quadlet write on the thesis's own lines: its "about 65 us".
     cycle = servo.block_loop_us(read, write)
     assert cycle == pytest.approx(33.2 + 32 * 32 / 360 + 30.7 + 7 * 32 / 290)
