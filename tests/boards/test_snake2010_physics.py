@@ -17,7 +17,7 @@ import math
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fw1394.boards.snake2010.physics import UNPOWERED, Drive, MotorAxis, MotorConstants
+from fw1394.boards.snake2010.physics import UNPOWERED, Drive, MotorAxis, MotorConstants, Regime
 from fw1394.engine.space import TICKS_PER_SECOND
 
 CONSTANTS = MotorConstants()
@@ -95,3 +95,53 @@ def test_a_steady_regime_takes_one_exponential_per_span() -> None:
     motor.advance = counting  # type: ignore[method-assign]
     motor.run(STEP + 5, 40 * STEP + 7, STEP, TICKS_PER_SECOND, drive)
     assert calls == 0
+
+
+class Forgetful(MotorAxis):
+    """The board's motor with its kept regime defeated: every question decided afresh."""
+
+    def _regime(self, drive: Drive, w: float) -> Regime:
+        self._known_speed = None
+        return super()._regime(drive, w)
+
+
+def _state(motor: MotorAxis) -> tuple[float | int, ...]:
+    return (
+        motor.angle_rad,
+        motor.velocity_rad_s,
+        motor.lowest_angle_rad,
+        motor.highest_angle_rad,
+        motor.last_direction,
+    )
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    state=states,
+    segments=st.lists(
+        st.tuples(
+            drives,
+            st.booleans(),  # the same drive object again, as between two register writes
+            st.integers(0, 4 * STEP),
+            st.integers(0, 40 * STEP),
+        ),
+        max_size=8,
+    ),
+)
+def test_the_kept_regime_changes_nothing(
+    state: tuple[float, float, int], segments: list[tuple[Drive, bool, int, int]]
+) -> None:
+    # Exactly, not up to rounding: the same motion, the same current afterwards.
+    kept, fresh = _motor(state), Forgetful(CONSTANTS)
+    fresh.angle_rad, fresh.velocity_rad_s, fresh.last_direction = state
+    fresh.lowest_angle_rad = fresh.highest_angle_rad = fresh.angle_rad
+    now, drive = 0, UNPOWERED
+    for new_drive, same, offset, span in segments:
+        if not same:
+            drive = new_drive
+        start, now = now + offset, now + offset + span
+        kept.run(start, now, STEP, TICKS_PER_SECOND, drive)
+        fresh.run(start, now, STEP, TICKS_PER_SECOND, drive)
+        assert _state(kept) == _state(fresh)
+        assert kept.current_amps(drive) == fresh.current_amps(drive)
+        assert kept.current_amps(new_drive) == fresh.current_amps(new_drive)

@@ -286,14 +286,8 @@ class Snake2010Board:
         self._last_realtime_read = self._now
         # Laid out by kind (every ADC word, then every encoder word, every period
         # word, and the unimplemented frequency words as zeros).
-        words = [ch.realtime_words() for ch in self.channels]
-        block = self._rt_layout.pack(
-            elapsed,
-            self.status,
-            *[w[0] for w in words],
-            *[w[1] for w in words],
-            *[w[2] for w in words],
-        )
+        adc, encoder, period = zip(*[ch.realtime_words() for ch in self.channels], strict=True)
+        block = self._rt_layout.pack(elapsed, self.status, *adc, *encoder, *period)
         if "stale-read" in self.defects:
             # Planted bug: hand out the block latched by the previous read.
             previous, self._previous_block = self._previous_block, block

@@ -44,16 +44,6 @@ DAC_STEPS = 1 << DAC_BITS
 CONVERTER_VOLTS = 2.5
 
 
-def adc_code(fraction: float) -> int:
-    """Signed 14-bit ADC result for an input at ``fraction`` of 2.5 V.
-
-    The ADC reports the input relative to 1.25 V, so 0 V reads -8192 and
-    inputs beyond either end of its range clip.
-    """
-    code = math.floor(fraction * ADC_STEPS) + ADC_MIN
-    return min(max(code, ADC_MIN), ADC_MAX)
-
-
 class Channel:
     """Registers and analog front end of one channel (1-based ``number``)."""
 
@@ -210,8 +200,9 @@ class Channel:
 
     def _fresh_words(self) -> tuple[int, int, int]:
         # The three words in one pass over the motor's state: they are rebuilt
-        # after every physics span of a moving motor, so this is a hot path, and
-        # adc_code is written out twice.
+        # after every physics span of a moving motor, so this is a hot path.
+        # The ADC reports its input (a fraction of 2.5 V) relative to 1.25 V,
+        # so 0 V reads -8192, and inputs beyond either end of its range clip.
         motor, floor = self.motor, math.floor
         if self.wiring == "loopback":
             pot = self.motor_command / DAC_STEPS
