@@ -253,13 +253,13 @@ class MotorAxis:
         if w is self._known_speed and drive is self._known_drive:
             return self._known
         regime: Regime
-        if not drive.powered:
+        powered, bridge, limit, compensation = drive
+        if not powered:
             regime = (self._free_rate, 0.0, 0.0, _COASTING)
         else:
             emf = self._ke * w
             ohms = self._ohms
-            bridge = drive.bridge_volts
-            effective = ohms - drive.compensation_ohms
+            effective = ohms - compensation
             if effective > self._runaway_ohms:
                 wanted = (bridge - emf) / effective
             else:
@@ -270,7 +270,6 @@ class MotorAxis:
                     push = bridge
                 wanted = math.copysign(math.inf, push) if push else 0.0
             rail = self._rail
-            limit = drive.current_limit_amps
             high_rail, low_rail = (rail - emf) / ohms, (-rail - emf) / ohms
             # Fixed current: only friction opposes the constant torque. Fixed
             # voltage: I = (V - Ke w) / R, and the back EMF makes the speed settle.
