@@ -1,11 +1,13 @@
 """The real-time block read keeps each channel's words between motions: still the registers.
 
 A snake2010 board keeps the ADC, encoder and period words of its real-time
-block until the motor moves or a register changes. Whatever the host does in
-between (amplifiers on and off, motor commands, current limits, encoder
-preloads, watchdog timeouts, time passing), every word of the block must equal
-what a quadlet read of the same register returns at the same moment, which
-computes it afresh.
+block until the motor moves or a register changes, builds them in one pass,
+and keeps the motor's latest regime for the current sample. Whatever the host
+does in between (amplifiers on and off, motor commands, current limits, pot
+gain and mode, encoder preloads, watchdog timeouts, time passing), every word
+of the block must equal what a quadlet read of the same register returns at
+the same moment, and what the register layouts make of the motor's state at
+that moment (worked out here, the current decided afresh).
 """
 
 from __future__ import annotations
@@ -37,8 +39,11 @@ SECOND = 49_152_000
 
 
 def to_a_hard_stop(command: int) -> list[tuple[Any, ...]]:
-    """Channel 1 at full current limit and feedback gain for seconds: the current
-    sample and then the pot sample run to one end of the ADC's range."""
+    """Channel 1 driven hard for seconds: its current and pot samples reach an end of the ADC.
+
+    Full current limit and feedback gain put the current sample past one end;
+    the motor then runs into a hard stop, which puts the pot sample at that end.
+    """
     return [
         ("status", 0x7F, 0x7F),
         ("pot", 1, PotCommand.WRITE_WIPER, WIPER_MAX),
