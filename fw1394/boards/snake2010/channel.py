@@ -51,6 +51,7 @@ class Channel:
         self.number = number
         self.constants = constants
         self.wiring = wiring
+        self._loopback = wiring == "loopback"
         self.motor = MotorAxis(constants)
         self.pot = DigitalPot()
         # Invented power-up codes: both DACs at mid-scale (motor stopped).
@@ -90,7 +91,7 @@ class Channel:
         return self._drive
 
     def _build_drive(self) -> Drive:
-        if not self._powered or self.wiring == "loopback":
+        if not self._powered or self._loopback:
             return UNPOWERED
         c = self.constants
         command_volts = (self.motor_command - DAC_MIDPOINT) * CONVERTER_VOLTS / DAC_STEPS
@@ -204,7 +205,8 @@ class Channel:
         # The ADC reports its input (a fraction of 2.5 V) relative to 1.25 V,
         # so 0 V reads -8192, and inputs beyond either end of its range clip.
         motor, floor = self.motor, math.floor
-        if self.wiring == "loopback":
+        angle = motor.angle_rad
+        if self._loopback:
             pot = self.motor_command / DAC_STEPS
             current = self.current_limit / DAC_STEPS
         else:
@@ -222,7 +224,7 @@ class Channel:
             current_code = ADC_MAX
         adc = (pot_code & ADC_HALF_MASK) << ADC_POT_SHIFT | current_code & ADC_HALF_MASK
         per_rad, base = self._counts_per_rad, self.preload - self._count_at_preload
-        count = base + floor(motor.angle_rad * per_rad)
+        count = base + floor(angle * per_rad)
         overflow = (
             base + floor(motor.lowest_angle_rad * per_rad) < 0
             or base + floor(motor.highest_angle_rad * per_rad) > ENCODER_COUNT_MASK

@@ -113,6 +113,8 @@ class MotorAxis:
         self.last_direction = 0  # sign of the latest motion, 0 = never moved
         # Plain attributes: the step loop is the emulator's hot path.
         self._stop = constants.half_travel_rad
+        self._mid_travel_mm = constants.travel_mm / 2.0
+        self._rad_per_mm = 2.0 * math.pi * constants.motor_revs_per_mm
         self._ke = constants.motor_constant
         self._kt_ke = constants.motor_constant**2
         self._ohms = constants.circuit_ohms
@@ -135,8 +137,7 @@ class MotorAxis:
     @property
     def position_mm(self) -> float:
         """Actuator position, 0 at one hard stop, ``travel_mm`` at the other."""
-        c = self.constants
-        return c.travel_mm / 2.0 + self.angle_rad / (2.0 * math.pi * c.motor_revs_per_mm)
+        return self._mid_travel_mm + self.angle_rad / self._rad_per_mm
 
     def current_amps(self, drive: Drive) -> float:
         """Motor current for the present speed and ``drive``."""
