@@ -145,3 +145,21 @@ def test_the_kept_regime_changes_nothing(
         assert _state(kept) == _state(fresh)
         assert kept.current_amps(drive) == fresh.current_amps(drive)
         assert kept.current_amps(new_drive) == fresh.current_amps(new_drive)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    state=states,
+    drive=drives,
+    start=st.integers(0, 4 * STEP),
+    span=st.integers(1, 40 * STEP),
+)
+def test_held_means_a_span_leaves_the_motor_as_it_is(
+    state: tuple[float, float, int], drive: Drive, start: int, span: int
+) -> None:
+    # The board skips held motors and keeps their words, so "held" must mean exactly that.
+    motor = _motor(state)
+    before = _state(motor)
+    held = motor.held(drive)
+    motor.run(start, start + span, STEP, TICKS_PER_SECOND, drive)
+    assert held == (_state(motor) == before)

@@ -120,13 +120,14 @@ class Channel:
     def run_motor(self, start: int, target: int, step: int) -> None:
         """Move the motor from tick ``start`` to ``target`` under the present registers.
 
-        Unpowered motors at rest cannot move and are left as they are.
+        A motor held at rest (unpowered, or by stiction) is left as it is, and
+        so are its words.
         """
         drive = self._drive
         if drive is None:
             drive = self._drive = self._build_drive()
         motor = self.motor
-        if drive.powered or motor.velocity_rad_s != 0.0:
+        if not motor.held(drive):
             motor.run(start, target, step, TICKS_PER_SECOND, drive)
             self._words = None
 

@@ -143,6 +143,19 @@ class MotorAxis:
         """Motor current for the present speed and ``drive``."""
         return self._regime(drive, self.velocity_rad_s)[2]
 
+    def held(self, drive: Drive) -> bool:
+        """True if the motor is at rest and stays there under ``drive``.
+
+        Unpowered, or its torque does not beat the dry friction (stiction):
+        :meth:`run` and :meth:`advance` would leave it exactly as it is.
+        """
+        w = self.velocity_rad_s
+        if w != 0.0:
+            return False
+        if not drive.powered:
+            return True  # no current, so no torque: the shortcut keeps idle buses cheap
+        return abs(self._ke * self._regime(drive, w)[2]) <= self._coulomb
+
     def reset_excursion(self) -> None:
         """Forget the travel seen so far (the encoder was preloaded)."""
         self.lowest_angle_rad = self.highest_angle_rad = self.angle_rad
