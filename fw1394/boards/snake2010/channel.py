@@ -127,6 +127,8 @@ class Channel:
         if drive is None:
             drive = self._drive = self._build_drive()
         motor = self.motor
+        if not drive.powered and motor.velocity_rad_s == 0.0:
+            return  # idle axes cost nothing, which keeps big buses cheap
         if not motor.held(drive):
             motor.run(start, target, step, TICKS_PER_SECOND, drive)
             self._words = None

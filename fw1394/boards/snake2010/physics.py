@@ -150,11 +150,7 @@ class MotorAxis:
         :meth:`run` and :meth:`advance` would leave it exactly as it is.
         """
         w = self.velocity_rad_s
-        if w != 0.0:
-            return False
-        if not drive.powered:
-            return True  # no current, so no torque: the shortcut keeps idle buses cheap
-        return abs(self._ke * self._regime(drive, w)[2]) <= self._coulomb
+        return w == 0.0 and abs(self._ke * self._regime(drive, w)[2]) <= self._coulomb
 
     def reset_excursion(self) -> None:
         """Forget the travel seen so far (the encoder was preloaded)."""
