@@ -10,6 +10,8 @@ Each piece runs in this process, without sockets, interleaved with its baseline
   memory node answering a read of the same length;
 * node, real-time block write: the 7-quadlet DAC write, 0.33 ms after the read
   as in the demo (so the board first moves its motors that far), same baseline;
+* the same read with every motor held at rest by stiction (amplifiers on, the
+  writes command mid-scale), same baseline;
 * physics: 1 ms of 7 moving motors, one exponential per motor
   (``MotorAxis.run``) against one step per 0.25 ms grid step (the reference).
 
@@ -109,14 +111,15 @@ def _moving_snake() -> Snake2010Board:
     return board
 
 
-def _commands(cycle: int) -> bytes:
-    codes = [0x8000 + int(12_000 * math.sin(cycle / 50 + k)) for k in range(CHANNELS)]
+def _commands(cycle: int, amplitude: int = 12_000) -> bytes:
+    codes = [0x8000 + int(amplitude * math.sin(cycle / 50 + k)) for k in range(CHANNELS)]
     return struct.pack(f">{CHANNELS}I", *[1 << 31 | code for code in codes])
 
 
 def responder_cycle(space_kind: str, which: str) -> Piece:
-    """``which`` ("read" or "write") of a demo cycle on a snake2010 or memory node."""
-    space = _moving_snake() if space_kind == "snake2010" else MemorySpace(4096)
+    """``which`` ("read" or "write") of a demo cycle on a node: snake2010, held or memory."""
+    space = MemorySpace(4096) if space_kind == "memory" else _moving_snake()
+    amplitude = 0 if space_kind == "held" else 12_000
     fast = FastResponder(Responder(ME, space, POLICIES["thesis"]))
     length = realtime_read_length(CHANNELS)
     read = encode_packet(
@@ -126,7 +129,7 @@ def responder_cycle(space_kind: str, which: str) -> Piece:
         encode_packet(
             BlockWriteRequest(destination_id=ME, source_id=HOST, tlabel=1, offset=0, data=data)
         )
-        for data in map(_commands, range(64))
+        for data in (_commands(cycle, amplitude) for cycle in range(64))
     ]
     clock = [0.0]
 
@@ -200,6 +203,8 @@ def main() -> None:
          "memory node, same length", responder_cycle("memory", "read")),
         ("snake2010 real-time block write", responder_cycle("snake2010", "write"),
          "memory node, same length", responder_cycle("memory", "write")),
+        ("same read, motors held by stiction", responder_cycle("held", "read"),
+         "memory node, same length", responder_cycle("memory", "read")),
         ("physics, 7 motors, 1 ms, one span", physics(jump=True),
          "one step per 0.25 ms", physics(jump=False)),
     ]  # fmt: skip

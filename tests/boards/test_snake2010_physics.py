@@ -157,9 +157,11 @@ def test_the_kept_regime_changes_nothing(
 def test_held_means_a_span_leaves_the_motor_as_it_is(
     state: tuple[float, float, int], drive: Drive, start: int, span: int
 ) -> None:
-    # The board skips held motors and keeps their words, so "held" must mean exactly that.
+    # The board skips held motors and keeps their words, so "held" must mean that; and
+    # away from the hard stops (which hold a motor pushing into them) nothing else is.
     motor = _motor(state)
     before = _state(motor)
     held = motor.held(drive)
     motor.run(start, start + span, STEP, TICKS_PER_SECOND, drive)
-    assert held == (_state(motor) == before)
+    if held or abs(state[0]) < STOP:
+        assert held == (_state(motor) == before)

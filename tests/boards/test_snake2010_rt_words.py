@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 
 from fw1394.boards.snake2010.board import Snake2010Board
 from fw1394.boards.snake2010.channel import Channel
-from fw1394.boards.snake2010.physics import MotorAxis
+from fw1394.boards.snake2010.physics import UNPOWERED, Drive, MotorAxis
 from fw1394.boards.snake2010.spec import (
     WIPER_MAX,
     PotCommand,
@@ -121,6 +121,22 @@ def _adc_half(volts: float) -> int:
     return min(max(code, -8192), 8191) & 0xFFFF
 
 
+def _drive_from_registers(board: Snake2010Board, channel: Channel) -> Drive:
+    """What the amplifier gets from the status, DAC and pot registers."""
+    n, constants = channel.number, channel.constants
+    status = board.read_quadlet(STATUS)
+    if not status >> (n - 1) & 1 or status >> (16 + n - 1) & 1:  # enabled, no fault
+        return UNPOWERED
+    dac = board.read_quadlet(n << 4 | DAC)
+    command_volts = ((dac & 0xFFFF) - 0x8000) * 2.5 / 65536
+    limit = (dac >> 16) / 65536 * constants.current_limit_full_scale_amps
+    compensation = 0.0
+    if channel.pot.outputs & 1:  # O1: speed mode, the current fed back
+        gain = current_feedback_gain(channel.pot.wiper)
+        compensation = constants.compensation_gain * gain * constants.sense_ohms
+    return Drive(True, constants.bridge_gain * command_volts, limit, compensation)
+
+
 def _words_from_state(channel: Channel, count_at_preload: int) -> tuple[int, int, int]:
     """The channel's ADC, encoder and period words, worked out from the spec and its motor."""
     motor, constants = channel.motor, channel.constants
@@ -162,6 +178,7 @@ def test_realtime_block_words_follow_the_motors(script: list[Any]) -> None:
         block = board.read_block(0, 4 * (4 + 4 * CHANNELS))
         words = [int.from_bytes(block[i : i + 4], "big") for i in range(0, len(block), 4)]
         for channel, at_preload in zip(board.channels, counts_at_preload, strict=True):
+            assert channel.drive == _drive_from_registers(board, channel)
             n = channel.number
             got = (
                 words[rt_adc_index(n)],

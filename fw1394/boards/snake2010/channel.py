@@ -172,8 +172,12 @@ class Channel:
             return
         code = value & DAC_CODE_MASK
         if value & DAC_SELECT_CURRENT_LIMIT:
+            if code == self.current_limit:
+                return
             self.current_limit = code
         else:
+            if code == self.motor_command:
+                return  # a servo loop repeats its command: drive and words stand
             self.motor_command = code
         self._drive = None
         self._words = None
