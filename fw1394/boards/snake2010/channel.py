@@ -99,7 +99,7 @@ class Channel:
         return Drive(True, c.bridge_gain * command_volts, limit, self._compensation)
 
     def _follow_pot(self) -> None:
-        # The wiper or O1 may have changed.
+        """Take the current-sense gain and the compensation from the pot's wiper and O1."""
         c = self.constants
         gain = current_feedback_gain(self.pot.wiper)
         self._sense_gain = gain * c.sense_ohms
