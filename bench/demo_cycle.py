@@ -8,9 +8,15 @@ Each piece runs in this process, without sockets, interleaved with its baseline
 * node, real-time block read: a snake2010 responder answering the 32-quadlet
   read with its 7 motors moving (1 ms since the previous cycle), against a
   memory node answering a read of the same length;
-* node, real-time block write: the 7-quadlet DAC write, same baseline;
+* node, real-time block write: the 7-quadlet DAC write, 0.33 ms after the read
+  as in the demo (so the board first moves its motors that far), same baseline;
+* the same read with every motor held at rest by stiction (amplifiers on, the
+  writes command mid-scale), same baseline;
 * physics: 1 ms of 7 moving motors, one exponential per motor
-  (``MotorAxis.run``) against one step per 0.25 ms grid step (the reference).
+  (``MotorAxis.run``) against one step per 0.25 ms grid step (the reference);
+* the demo's loop in one process: ``PositionLoop.step`` with both snake2010
+  boards (7 and 4 axes) on a ``LocalPort``, each of the cycle's four
+  transactions at its time in the demo's cycle, against the host law alone.
 
 What the bus adds (system calls, wake-ups, the capture) is measured live by
 ``fw1394 demo`` itself (per-process CPU and wake-ups per cycle).
@@ -27,18 +33,20 @@ import struct
 import time
 from collections.abc import Callable
 
+from fw1394.boards import make_board
 from fw1394.boards.memory.board import MemorySpace
 from fw1394.boards.snake2010.board import Snake2010Board
 from fw1394.boards.snake2010.physics import MotorAxis
 from fw1394.boards.snake2010.rt_blocks import realtime_read_length
 from fw1394.boards.snake2010.spec import ENCODER_MIDPOINT
 from fw1394.cli.dissect import positive
-from fw1394.demo.run import AXES_PER_BOARD, GAINS, trajectory
+from fw1394.demo.run import AXES_PER_BOARD, BOARDS, GAINS, trajectory
 from fw1394.engine import Responder
 from fw1394.engine.fast_responder import FastResponder
 from fw1394.engine.policy import POLICIES
 from fw1394.engine.space import TICKS_PER_SECOND
 from fw1394.host import Board, MultiBoard, PositionLoop
+from fw1394.host.port import LocalPort
 from fw1394.host.robot import RobotIO
 from fw1394.packets import BlockReadRequest, BlockWriteRequest
 from fw1394.packets.fast import encode_packet
@@ -48,6 +56,11 @@ HOST, ME = node_id(62), node_id(0)
 CHANNELS = 7
 MILLISECOND = TICKS_PER_SECOND // 1000
 STEP_TICKS = 12_288  # the board's physics grid
+#: When the demo's four transactions come in its cycle (s): read of the 7-axis
+#: board, read of the 4-axis board, write of each ("Where a cycle goes" in
+#: docs/performance.md).
+TRANSACTION_TIMES = (0.0, 0.00016, 0.00033, 0.00039)
+WRITE_AFTER_READ = TRANSACTION_TIMES[2] - TRANSACTION_TIMES[0]
 
 Piece = Callable[[int], None]
 
@@ -96,6 +109,45 @@ def servo_law(robot_class: type[MultiBoard]) -> Piece:
     return run
 
 
+class DemoClock:
+    """Board time of each transaction: 0 while setting up, then the demo's cycle times."""
+
+    def __init__(self) -> None:
+        self.cycle = -1  # setting up
+        self.transaction = 0
+
+    def next_cycle(self) -> None:
+        self.cycle += 1
+        self.transaction = 0
+
+    def __call__(self) -> int:
+        if self.cycle < 0:
+            return 0
+        offset = TRANSACTION_TIMES[self.transaction % len(TRANSACTION_TIMES)]
+        self.transaction += 1
+        return round((0.001 * (self.cycle + 1) + offset) * TICKS_PER_SECOND)
+
+
+def demo_loop() -> Piece:
+    clock = DemoClock()
+    port = LocalPort(
+        {node: make_board(kind, board_id=node) for node, kind in enumerate(BOARDS)}, clock
+    )
+    robot = MultiBoard([Board(port, n, a) for n, a in enumerate(AXES_PER_BOARD)])
+    for axis in range(robot.num_axes):
+        robot.set_encoder_preload(axis, ENCODER_MIDPOINT)
+    robot.set_power_control(robot.power_word(range(robot.num_axes), on=True))
+    robot.apply_all_outputs()
+    loop = PositionLoop(robot, [trajectory(a) for a in range(robot.num_axes)], GAINS)
+
+    def run(cycles: int) -> None:
+        for _ in range(cycles):
+            clock.next_cycle()
+            loop.step()
+
+    return run
+
+
 def _moving_snake() -> Snake2010Board:
     board = Snake2010Board(board_id=0)
     for channel in range(1, CHANNELS + 1):
@@ -104,14 +156,15 @@ def _moving_snake() -> Snake2010Board:
     return board
 
 
-def _commands(cycle: int) -> bytes:
-    codes = [0x8000 + int(12_000 * math.sin(cycle / 50 + k)) for k in range(CHANNELS)]
+def _commands(cycle: int, amplitude: int = 12_000) -> bytes:
+    codes = [0x8000 + int(amplitude * math.sin(cycle / 50 + k)) for k in range(CHANNELS)]
     return struct.pack(f">{CHANNELS}I", *[1 << 31 | code for code in codes])
 
 
 def responder_cycle(space_kind: str, which: str) -> Piece:
-    """``which`` ("read" or "write") of a demo cycle on a snake2010 or memory node."""
-    space = _moving_snake() if space_kind == "snake2010" else MemorySpace(4096)
+    """``which`` ("read" or "write") of a demo cycle on a node: snake2010, held or memory."""
+    space = MemorySpace(4096) if space_kind == "memory" else _moving_snake()
+    amplitude = 0 if space_kind == "held" else 12_000
     fast = FastResponder(Responder(ME, space, POLICIES["thesis"]))
     length = realtime_read_length(CHANNELS)
     read = encode_packet(
@@ -121,12 +174,12 @@ def responder_cycle(space_kind: str, which: str) -> Piece:
         encode_packet(
             BlockWriteRequest(destination_id=ME, source_id=HOST, tlabel=1, offset=0, data=data)
         )
-        for data in map(_commands, range(64))
+        for data in (_commands(cycle, amplitude) for cycle in range(64))
     ]
     clock = [0.0]
 
     def run(cycles: int) -> None:
-        # Both transactions go on every cycle (the write moves the motors); only
+        # Both transactions go on every cycle (the write changes the drives); only
         # ``which`` is timed, so the other one's time is taken out again.
         serve, now = fast.serve, clock[0]
         timer, spent = time.process_time, 0.0
@@ -136,11 +189,11 @@ def responder_cycle(space_kind: str, which: str) -> Piece:
                 started = timer()
                 serve(read, 0, now)
                 spent += timer() - started
-                serve(writes[cycle % 64], 0, now)
+                serve(writes[cycle % 64], 0, now + WRITE_AFTER_READ)
             else:
                 serve(read, 0, now)
                 started = timer()
-                serve(writes[cycle % 64], 0, now)
+                serve(writes[cycle % 64], 0, now + WRITE_AFTER_READ)
                 spent += timer() - started
         clock[0] = now
         run.spent = spent  # type: ignore[attr-defined]
@@ -195,8 +248,12 @@ def main() -> None:
          "memory node, same length", responder_cycle("memory", "read")),
         ("snake2010 real-time block write", responder_cycle("snake2010", "write"),
          "memory node, same length", responder_cycle("memory", "write")),
+        ("same read, motors held by stiction", responder_cycle("held", "read"),
+         "memory node, same length", responder_cycle("memory", "read")),
         ("physics, 7 motors, 1 ms, one span", physics(jump=True),
          "one step per 0.25 ms", physics(jump=False)),
+        ("demo loop, both boards in-process", demo_loop(),
+         "host servo law alone", servo_law(MultiBoard)),
     ]  # fmt: skip
     print(f"CPU µs per demo cycle, {args.rounds} interleaved A/B rounds of {args.cycles} cycles")
     for name, piece, base_name, base in pairs:

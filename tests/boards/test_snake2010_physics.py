@@ -8,6 +8,10 @@ allows. The two differ only in how the exponential solution is composed
 place per step: a relative 1e-9 bounds that for the spans drawn here (at most a
 few thousand steps). An absolute 1e-9 rad (a millionth of an encoder count)
 covers states near zero.
+
+Two shortcuts of the board's must change nothing at all: the regime a motor
+keeps from its latest decision (against a motor that decides afresh every
+time), and skipping a motor that is held at rest.
 """
 
 from __future__ import annotations
@@ -17,7 +21,7 @@ import math
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fw1394.boards.snake2010.physics import UNPOWERED, Drive, MotorAxis, MotorConstants
+from fw1394.boards.snake2010.physics import UNPOWERED, Drive, MotorAxis, MotorConstants, Regime
 from fw1394.engine.space import TICKS_PER_SECOND
 
 CONSTANTS = MotorConstants()
@@ -42,8 +46,8 @@ states = st.tuples(
 )
 
 
-def _motor(state: tuple[float, float, int]) -> MotorAxis:
-    motor = MotorAxis(CONSTANTS)
+def _motor(state: tuple[float, float, int], kind: type[MotorAxis] = MotorAxis) -> MotorAxis:
+    motor = kind(CONSTANTS)
     motor.angle_rad, motor.velocity_rad_s, motor.last_direction = state
     motor.lowest_angle_rad = motor.highest_angle_rad = motor.angle_rad
     return motor
@@ -95,3 +99,71 @@ def test_a_steady_regime_takes_one_exponential_per_span() -> None:
     motor.advance = counting  # type: ignore[method-assign]
     motor.run(STEP + 5, 40 * STEP + 7, STEP, TICKS_PER_SECOND, drive)
     assert calls == 0
+
+
+class Forgetful(MotorAxis):
+    """The board's motor with its kept regime defeated: every question decided afresh."""
+
+    def _regime(self, drive: Drive, w: float) -> Regime:
+        self._known_speed = None
+        return super()._regime(drive, w)
+
+
+def _state(motor: MotorAxis) -> tuple[float | int, ...]:
+    return (
+        motor.angle_rad,
+        motor.velocity_rad_s,
+        motor.lowest_angle_rad,
+        motor.highest_angle_rad,
+        motor.last_direction,
+    )
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    state=states,
+    segments=st.lists(
+        st.tuples(
+            drives,
+            st.booleans(),  # the same drive object again, as between two register writes
+            st.integers(0, 4 * STEP),
+            st.integers(0, 40 * STEP),
+        ),
+        max_size=8,
+    ),
+)
+def test_the_kept_regime_changes_nothing(
+    state: tuple[float, float, int], segments: list[tuple[Drive, bool, int, int]]
+) -> None:
+    # Exactly, not up to rounding: the same motion, the same current afterwards.
+    kept, fresh = _motor(state), _motor(state, Forgetful)
+    now, drive = 0, UNPOWERED
+    for new_drive, same, offset, span in segments:
+        if not same:
+            drive = new_drive
+        start, now = now + offset, now + offset + span
+        kept.run(start, now, STEP, TICKS_PER_SECOND, drive)
+        fresh.run(start, now, STEP, TICKS_PER_SECOND, drive)
+        assert _state(kept) == _state(fresh)
+        assert kept.current_amps(drive) == fresh.current_amps(drive)
+        assert kept.current_amps(new_drive) == fresh.current_amps(new_drive)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    state=states,
+    drive=drives,
+    start=st.integers(0, 4 * STEP),
+    span=st.integers(1, 40 * STEP),
+)
+def test_held_means_a_span_leaves_the_motor_as_it_is(
+    state: tuple[float, float, int], drive: Drive, start: int, span: int
+) -> None:
+    # The board skips held motors and keeps their words, so "held" must mean that; and
+    # away from the hard stops (which hold a motor pushing into them) nothing else is.
+    motor = _motor(state)
+    before = _state(motor)
+    held = motor.held(drive)
+    motor.run(start, start + span, STEP, TICKS_PER_SECOND, drive)
+    if held or abs(state[0]) < STOP:
+        assert held == (_state(motor) == before)

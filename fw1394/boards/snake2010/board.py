@@ -44,7 +44,7 @@ from fw1394.boards.snake2010.spec import (
     STATUS_FAULT_SHIFT,
     STATUS_WATCHDOG_TIMEOUT,
 )
-from fw1394.engine.space import TICKS_PER_SECOND, AddressError, DataError
+from fw1394.engine.space import AddressError, DataError
 
 #: Planted defects this board understands; other names are left for the
 #: packet layers, which receive the same set.
@@ -276,27 +276,18 @@ class Snake2010Board:
         if now >= target:
             return
         self._now = target
-        # Registers cannot change meanwhile, so each drive holds for the span;
-        # unpowered motors at rest cannot move and are left out.
+        # Registers cannot change meanwhile, so each drive holds for the span.
+        step = self._step
         for channel in self.channels:
-            drive = channel.drive
-            if drive.powered or channel.motor.velocity_rad_s != 0.0:
-                channel.motor.run(now, target, self._step, TICKS_PER_SECOND, drive)
-                channel.moved()
+            channel.run_motor(now, target, step)
 
     def _realtime_block(self) -> bytes:
         elapsed = (self._now - self._last_realtime_read) & 0xFFFF_FFFF
         self._last_realtime_read = self._now
         # Laid out by kind (every ADC word, then every encoder word, every period
         # word, and the unimplemented frequency words as zeros).
-        words = [ch.realtime_words() for ch in self.channels]
-        block = self._rt_layout.pack(
-            elapsed,
-            self.status,
-            *[w[0] for w in words],
-            *[w[1] for w in words],
-            *[w[2] for w in words],
-        )
+        adc, encoder, period = zip(*[ch.realtime_words() for ch in self.channels], strict=True)
+        block = self._rt_layout.pack(elapsed, self.status, *adc, *encoder, *period)
         if "stale-read" in self.defects:
             # Planted bug: hand out the block latched by the previous read.
             previous, self._previous_block = self._previous_block, block

@@ -35,22 +35,13 @@ from fw1394.boards.snake2010.spec import (
     Device,
     current_feedback_gain,
 )
+from fw1394.engine.space import TICKS_PER_SECOND
 
 Wiring = Literal["motor", "loopback"]
 
 ADC_STEPS = 1 << ADC_BITS
 DAC_STEPS = 1 << DAC_BITS
 CONVERTER_VOLTS = 2.5
-
-
-def adc_code(fraction: float) -> int:
-    """Signed 14-bit ADC result for an input at ``fraction`` of 2.5 V.
-
-    The ADC reports the input relative to 1.25 V, so 0 V reads -8192 and
-    inputs beyond either end of its range clip.
-    """
-    code = math.floor(fraction * ADC_STEPS) + ADC_MIN
-    return min(max(code, ADC_MIN), ADC_MAX)
 
 
 class Channel:
@@ -60,6 +51,7 @@ class Channel:
         self.number = number
         self.constants = constants
         self.wiring = wiring
+        self._loopback = wiring == "loopback"
         self.motor = MotorAxis(constants)
         self.pot = DigitalPot()
         # Invented power-up codes: both DACs at mid-scale (motor stopped).
@@ -69,8 +61,9 @@ class Channel:
         self._count_at_preload = 0
         self._powered = False
         self._drive: Drive | None = None  # cache, rebuilt after register writes
-        self._gain = current_feedback_gain(self.pot.wiper)  # follows pot writes
-        self._sense_gain = self._gain * constants.sense_ohms  # sense volts per amp
+        self._sense_gain = 0.0  # sense volts per amp, follows pot writes
+        self._compensation = 0.0  # the drive's compensation_ohms, follows pot writes
+        self._follow_pot()
         self._travel_mm = constants.travel_mm
         self._counts_per_rad = constants.encoder_counts_per_rev / (2.0 * math.pi)
         # The real-time block's words, kept until the motor moves or a register
@@ -98,15 +91,20 @@ class Channel:
         return self._drive
 
     def _build_drive(self) -> Drive:
-        if not self._powered or self.wiring == "loopback":
+        if not self._powered or self._loopback:
             return UNPOWERED
         c = self.constants
         command_volts = (self.motor_command - DAC_MIDPOINT) * CONVERTER_VOLTS / DAC_STEPS
         limit = self.current_limit / DAC_STEPS * c.current_limit_full_scale_amps
-        compensation = 0.0
-        if self.pot.speed_mode:
-            compensation = c.compensation_gain * self._gain * c.sense_ohms
-        return Drive(True, c.bridge_gain * command_volts, limit, compensation)
+        return Drive(True, c.bridge_gain * command_volts, limit, self._compensation)
+
+    def _follow_pot(self) -> None:
+        """Take the current-sense gain and the compensation from the pot's wiper and O1."""
+        c = self.constants
+        gain = current_feedback_gain(self.pot.wiper)
+        self._sense_gain = gain * c.sense_ohms
+        speed_mode = self.pot.speed_mode
+        self._compensation = c.compensation_gain * gain * c.sense_ohms if speed_mode else 0.0
 
     def current_amps(self) -> float:
         """Motor current now (0 when the amplifier is off)."""
@@ -119,9 +117,21 @@ class Channel:
             words = self._words = self._fresh_words()
         return words
 
-    def moved(self) -> None:
-        """The motor's state changed (the board stepped its physics)."""
-        self._words = None
+    def run_motor(self, start: int, target: int, step: int) -> None:
+        """Move the motor from tick ``start`` to ``target`` under the present registers.
+
+        A motor held at rest (unpowered, or by stiction) is left as it is, and
+        so are its words.
+        """
+        drive = self._drive
+        if drive is None:
+            drive = self._drive = self._build_drive()
+        motor = self.motor
+        if not drive.powered and motor.velocity_rad_s == 0.0:
+            return  # idle axes cost nothing, which keeps big buses cheap
+        if not motor.held(drive):
+            motor.run(start, target, step, TICKS_PER_SECOND, drive)
+            self._words = None
 
     # --- registers -------------------------------------------------------
     def read(self, device: int) -> int:
@@ -150,9 +160,7 @@ class Channel:
             self.write_dac(value)
         elif device == Device.POT_CONTROL:
             self.pot.execute(value)
-            # The wiper or O1 may have changed.
-            self._gain = current_feedback_gain(self.pot.wiper)
-            self._sense_gain = self._gain * self.constants.sense_ohms
+            self._follow_pot()
             self._drive = None
             self._words = None
         elif device == Device.ENCODER_PRELOAD:
@@ -164,8 +172,12 @@ class Channel:
             return
         code = value & DAC_CODE_MASK
         if value & DAC_SELECT_CURRENT_LIMIT:
+            if code == self.current_limit:
+                return
             self.current_limit = code
         else:
+            if code == self.motor_command:
+                return  # a servo loop repeats its command: drive and words stand
             self.motor_command = code
         self._drive = None
         self._words = None
@@ -197,18 +209,29 @@ class Channel:
     def _fresh_words(self) -> tuple[int, int, int]:
         # The three words in one pass over the motor's state: they are rebuilt
         # after every physics span of a moving motor, so this is a hot path.
+        # The ADC reports its input (a fraction of 2.5 V) relative to 1.25 V,
+        # so 0 V reads -8192, and inputs beyond either end of its range clip.
         motor, floor = self.motor, math.floor
-        if self.wiring == "loopback":
+        angle = motor.angle_rad
+        if self._loopback:
             pot = self.motor_command / DAC_STEPS
             current = self.current_limit / DAC_STEPS
         else:
             pot = motor.position_mm / self._travel_mm
-            current = 0.5 + self._sense_gain * self.current_amps() / CONVERTER_VOLTS
-        adc = ((adc_code(pot) & ADC_HALF_MASK) << ADC_POT_SHIFT) | (
-            adc_code(current) & ADC_HALF_MASK
-        )
+            current = 0.5 + self._sense_gain * motor.current_amps(self.drive) / CONVERTER_VOLTS
+        pot_code = floor(pot * ADC_STEPS) + ADC_MIN
+        if pot_code < ADC_MIN:
+            pot_code = ADC_MIN
+        elif pot_code > ADC_MAX:
+            pot_code = ADC_MAX
+        current_code = floor(current * ADC_STEPS) + ADC_MIN
+        if current_code < ADC_MIN:
+            current_code = ADC_MIN
+        elif current_code > ADC_MAX:
+            current_code = ADC_MAX
+        adc = (pot_code & ADC_HALF_MASK) << ADC_POT_SHIFT | current_code & ADC_HALF_MASK
         per_rad, base = self._counts_per_rad, self.preload - self._count_at_preload
-        count = base + floor(motor.angle_rad * per_rad)
+        count = base + floor(angle * per_rad)
         overflow = (
             base + floor(motor.lowest_angle_rad * per_rad) < 0
             or base + floor(motor.highest_angle_rad * per_rad) > ENCODER_COUNT_MASK

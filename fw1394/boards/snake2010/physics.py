@@ -113,6 +113,8 @@ class MotorAxis:
         self.last_direction = 0  # sign of the latest motion, 0 = never moved
         # Plain attributes: the step loop is the emulator's hot path.
         self._stop = constants.half_travel_rad
+        self._mid_travel_mm = constants.travel_mm / 2.0
+        self._rad_per_mm = 2.0 * math.pi * constants.motor_revs_per_mm
         self._ke = constants.motor_constant
         self._kt_ke = constants.motor_constant**2
         self._ohms = constants.circuit_ohms
@@ -121,16 +123,34 @@ class MotorAxis:
         self._coulomb = constants.coulomb_friction
         self._inertia = constants.inertia
         self._runaway_ohms = constants.runaway_fraction * constants.circuit_ohms
+        self._free_rate = self._friction / self._inertia  # no current: friction alone
+        rail_damping = self._friction + self._kt_ke / self._ohms
+        self._rail_rate = rail_damping / self._inertia
+        self._high_rail_speed = self._ke * self._rail / self._ohms / rail_damping
+        self._low_rail_speed = self._ke * -self._rail / self._ohms / rail_damping
+        # The latest regime decided and what for: the words read after a span ask
+        # again for its end speed, and so does the next span if the drive held.
+        self._known: Regime = (self._free_rate, 0.0, 0.0, _COASTING)
+        self._known_drive = UNPOWERED
+        self._known_speed: float | None = None
 
     @property
     def position_mm(self) -> float:
         """Actuator position, 0 at one hard stop, ``travel_mm`` at the other."""
-        c = self.constants
-        return c.travel_mm / 2.0 + self.angle_rad / (2.0 * math.pi * c.motor_revs_per_mm)
+        return self._mid_travel_mm + self.angle_rad / self._rad_per_mm
 
     def current_amps(self, drive: Drive) -> float:
         """Motor current for the present speed and ``drive``."""
         return self._regime(drive, self.velocity_rad_s)[2]
+
+    def held(self, drive: Drive) -> bool:
+        """True if the motor is at rest and stays there under ``drive``.
+
+        Unpowered, or its torque does not beat the dry friction (stiction):
+        :meth:`run` and :meth:`advance` would leave it exactly as it is.
+        """
+        w = self.velocity_rad_s
+        return w == 0.0 and abs(self._ke * self._regime(drive, w)[2]) <= self._coulomb
 
     def reset_excursion(self) -> None:
         """Forget the travel seen so far (the encoder was preloaded)."""
@@ -236,41 +256,48 @@ class MotorAxis:
         """(1/time constant, final speed, current, which regime) at speed ``w``.
 
         The motion obeys ``dw/dt = rate * (w_final - w)`` until the regime
-        changes; which regime holds depends on the speed.
+        changes; which regime holds depends on the speed. The latest answer is
+        kept and matched by identity: drive and speed are immutable, so the
+        same objects give the same answer.
         """
-        if not drive.powered:
-            return self._friction / self._inertia, 0.0, 0.0, _COASTING
-        emf = self._ke * w
-        ohms = self._ohms
-        effective = ohms - drive.compensation_ohms
-        if effective > self._runaway_ohms:
-            wanted = (drive.bridge_volts - emf) / effective
+        if w is self._known_speed and drive is self._known_drive:
+            return self._known
+        regime: Regime
+        powered, bridge, limit, compensation = drive
+        if not powered:
+            regime = (self._free_rate, 0.0, 0.0, _COASTING)
         else:
-            # Over-compensated: the positive feedback drives the current to
-            # whichever limit lies in the direction the command pushes.
-            push = drive.bridge_volts - emf
-            if push == 0.0:
-                push = drive.bridge_volts
-            wanted = math.copysign(math.inf, push) if push else 0.0
-        rail = self._rail
-        limit = drive.current_limit_amps
-        high_rail, low_rail = (rail - emf) / ohms, (-rail - emf) / ohms
-        if wanted > high_rail or wanted > limit:
-            if high_rail < limit:
-                return self._voltage_regime(rail, ohms, high_rail, _HIGH_RAIL)
-            return self._current_regime(limit, _HIGH_LIMIT)
-        if wanted < low_rail or wanted < -limit:
-            if low_rail > -limit:
-                return self._voltage_regime(-rail, ohms, low_rail, _LOW_RAIL)
-            return self._current_regime(-limit, _LOW_LIMIT)
-        return self._voltage_regime(drive.bridge_volts, effective, wanted, _LINEAR)
-
-    def _voltage_regime(self, volts: float, ohms: float, amps: float, regime: int) -> Regime:
-        # I = (V - Ke w) / R: the back EMF makes the speed settle.
-        damping = self._friction + self._kt_ke / ohms
-        return damping / self._inertia, self._ke * volts / ohms / damping, amps, regime
-
-    def _current_regime(self, amps: float, regime: int) -> Regime:
-        # Fixed current: only friction opposes the constant torque.
-        b = self._friction
-        return b / self._inertia, self._ke * amps / b, amps, regime
+            emf = self._ke * w
+            ohms = self._ohms
+            effective = ohms - compensation
+            if effective > self._runaway_ohms:
+                wanted = (bridge - emf) / effective
+            else:
+                # Over-compensated: the positive feedback drives the current to
+                # whichever limit lies in the direction the command pushes.
+                push = bridge - emf
+                if push == 0.0:
+                    push = bridge
+                wanted = math.copysign(math.inf, push) if push else 0.0
+            rail = self._rail
+            high_rail, low_rail = (rail - emf) / ohms, (-rail - emf) / ohms
+            # Fixed current: only friction opposes the constant torque. Fixed
+            # voltage: I = (V - Ke w) / R, and the back EMF makes the speed settle.
+            if wanted > high_rail or wanted > limit:
+                if high_rail < limit:
+                    regime = (self._rail_rate, self._high_rail_speed, high_rail, _HIGH_RAIL)
+                else:
+                    speed = self._ke * limit / self._friction
+                    regime = (self._free_rate, speed, limit, _HIGH_LIMIT)
+            elif wanted < low_rail or wanted < -limit:
+                if low_rail > -limit:
+                    regime = (self._rail_rate, self._low_rail_speed, low_rail, _LOW_RAIL)
+                else:
+                    speed = self._ke * -limit / self._friction
+                    regime = (self._free_rate, speed, -limit, _LOW_LIMIT)
+            else:
+                damping = self._friction + self._kt_ke / effective
+                speed = self._ke * bridge / effective / damping
+                regime = (damping / self._inertia, speed, wanted, _LINEAR)
+        self._known, self._known_drive, self._known_speed = regime, drive, w
+        return regime
