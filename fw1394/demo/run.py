@@ -228,9 +228,10 @@ def _servo(
     cycle = 0
     while (now := time.perf_counter()) < end:
         if now < deadline:
-            # Sleep most of the wait, spin the last 0.2 ms: sleep alone is too coarse.
-            if deadline - now > 0.0003:
-                time.sleep(deadline - now - 0.0002)
+            # Sleep the whole wait: the cycle starts some 70 µs late (the kernel's
+            # timer slack and the wake-up), every cycle alike, so the rate holds;
+            # spinning the last stretch would take a core the nodes and the capture need.
+            time.sleep(deadline - now)
             continue
         if now - deadline > period:
             # A missed deadline: count it and resume from now rather than
