@@ -43,12 +43,11 @@ def trajectory(axis: int) -> Callable[[float], float]:
     amplitude = 1500.0 * (1 + axis % 4)
     frequency = 0.5 + 0.15 * axis
     phase = axis * 0.7
+    angular = 2 * math.pi * frequency  # grouped as 2 * pi * frequency * t groups it
 
     def target(t: float) -> float:
-        envelope = min(t / 0.5, 1.0)  # start at rest, where the motors are
-        return ENCODER_MIDPOINT + envelope * amplitude * math.sin(
-            2 * math.pi * frequency * t + phase
-        )
+        envelope = t / 0.5 if t < 0.5 else 1.0  # start at rest, where the motors are
+        return ENCODER_MIDPOINT + envelope * amplitude * math.sin(angular * t + phase)
 
     return target
 
