@@ -20,6 +20,7 @@ from fw1394.boards.snake2010.spec import (
     WATCHDOG_PRESCALER,
 )
 from fw1394.demo.counting import CountingPort
+from fw1394.demo.pacing import Waker
 from fw1394.demo.processes import children, per_cycle, snapshot, wait_idle
 from fw1394.engine import FailureReason
 from fw1394.engine.space import TICKS_PER_SECOND
@@ -225,12 +226,10 @@ def _servo(
     next_report = start
     tripped = False
     cycle = 0
+    waker = Waker()
     while (now := time.perf_counter()) < end:
         if now < deadline:
-            # Sleep the whole wait: the cycle starts some 70 µs late (the kernel's
-            # timer slack and the wake-up), every cycle alike, so the rate holds;
-            # spinning the last stretch would take a core the nodes and the capture need.
-            time.sleep(deadline - now)
+            waker.wait_until(deadline)
             continue
         if now - deadline > period:
             # A missed deadline: count it and resume from now rather than
