@@ -4,7 +4,9 @@ Each piece runs in this process, without sockets, interleaved with its baseline
 (A B A B ...), so both halves of a ratio come from the same machine regime:
 
 * host servo law: ``PositionLoop.step`` for the demo's 11 axes on a port that
-  answers at once, with the whole-robot calls against the per-axis calls;
+  answers at once (its law inline) against the
+  plain cycle with the law through the unit helpers, one call per axis
+  (``count_difference``, ``dac_code``), as the loop was written before;
 * node, real-time block read: a snake2010 responder answering the 32-quadlet
   read with its 7 motors moving (1 ms since the previous cycle), against a
   memory node answering a read of the same length;
@@ -47,7 +49,7 @@ from fw1394.engine.policy import POLICIES
 from fw1394.engine.space import TICKS_PER_SECOND
 from fw1394.host import Board, MultiBoard, PositionLoop
 from fw1394.host.port import LocalPort
-from fw1394.host.robot import RobotIO
+from fw1394.host.units import count_difference, dac_code
 from fw1394.packets import BlockReadRequest, BlockWriteRequest
 from fw1394.packets.fast import encode_packet
 from fw1394.packets.nodeid import node_id
@@ -89,16 +91,9 @@ class InstantPort:
         pass
 
 
-class PerAxisRobot(MultiBoard):
-    """The demo's robot with the whole-robot calls taken back to one call per axis."""
-
-    get_encoder_positions = RobotIO.get_encoder_positions
-    set_motor_voltages = RobotIO.set_motor_voltages
-
-
-def servo_law(robot_class: type[MultiBoard]) -> Piece:
+def servo_law() -> Piece:
     port = InstantPort()
-    robot = robot_class([Board(port, n, a) for n, a in enumerate(AXES_PER_BOARD)])
+    robot = MultiBoard([Board(port, n, a) for n, a in enumerate(AXES_PER_BOARD)])
     loop = PositionLoop(robot, [trajectory(a) for a in range(robot.num_axes)], GAINS)
 
     def run(cycles: int) -> None:
@@ -144,6 +139,33 @@ def demo_loop() -> Piece:
         for _ in range(cycles):
             clock.next_cycle()
             loop.step()
+
+    return run
+
+
+def helper_law() -> Piece:
+    """The same cycle, plain, with the law through the unit helpers axis by axis."""
+    port = InstantPort()
+    robot = MultiBoard([Board(port, n, a) for n, a in enumerate(AXES_PER_BOARD)])
+    targets = [trajectory(a) for a in range(robot.num_axes)]
+    previous: list[list[int]] = []
+
+    def run(cycles: int) -> None:
+        for cycle in range(cycles):
+            t = cycle / 1000
+            robot.latch_all_inputs()
+            positions = robot.get_encoder_positions()
+            before = previous[0] if previous else positions
+            commands = []
+            for axis, position in enumerate(positions):
+                error = count_difference(round(targets[axis](t)), position)
+                velocity = count_difference(position, before[axis]) * 1000.0
+                command = GAINS.kp * error - GAINS.kd * velocity
+                limit = GAINS.max_command
+                commands.append(dac_code(round(min(max(command, -limit), limit))))
+            robot.set_motor_voltages(commands)
+            robot.apply_all_outputs()
+            previous[:] = [positions]
 
     return run
 
@@ -242,8 +264,8 @@ def main() -> None:
     parser.add_argument("--cycles", type=positive, default=2000, help="cycles per round")
     args = parser.parse_args()
     pairs: list[tuple[str, Piece, str, Piece]] = [
-        ("host servo law, whole-robot calls", servo_law(MultiBoard),
-         "per-axis calls", servo_law(PerAxisRobot)),
+        ("host servo law, inline", servo_law(),
+         "plain, unit helpers", helper_law()),
         ("snake2010 real-time block read", responder_cycle("snake2010", "read"),
          "memory node, same length", responder_cycle("memory", "read")),
         ("snake2010 real-time block write", responder_cycle("snake2010", "write"),
@@ -253,7 +275,7 @@ def main() -> None:
         ("physics, 7 motors, 1 ms, one span", physics(jump=True),
          "one step per 0.25 ms", physics(jump=False)),
         ("demo loop, both boards in-process", demo_loop(),
-         "host servo law alone", servo_law(MultiBoard)),
+         "host servo law alone", servo_law()),
     ]  # fmt: skip
     print(f"CPU µs per demo cycle, {args.rounds} interleaved A/B rounds of {args.cycles} cycles")
     for name, piece, base_name, base in pairs:

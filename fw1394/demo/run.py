@@ -20,6 +20,7 @@ from fw1394.boards.snake2010.spec import (
     WATCHDOG_PRESCALER,
 )
 from fw1394.demo.counting import CountingPort
+from fw1394.demo.pacing import Waker
 from fw1394.demo.processes import children, per_cycle, snapshot, wait_idle
 from fw1394.engine import FailureReason
 from fw1394.engine.space import TICKS_PER_SECOND
@@ -43,12 +44,11 @@ def trajectory(axis: int) -> Callable[[float], float]:
     amplitude = 1500.0 * (1 + axis % 4)
     frequency = 0.5 + 0.15 * axis
     phase = axis * 0.7
+    angular = 2 * math.pi * frequency  # grouped as 2 * pi * frequency * t groups it
 
     def target(t: float) -> float:
-        envelope = min(t / 0.5, 1.0)  # start at rest, where the motors are
-        return ENCODER_MIDPOINT + envelope * amplitude * math.sin(
-            2 * math.pi * frequency * t + phase
-        )
+        envelope = t / 0.5 if t < 0.5 else 1.0  # start at rest, where the motors are
+        return ENCODER_MIDPOINT + envelope * amplitude * math.sin(angular * t + phase)
 
     return target
 
@@ -226,11 +226,10 @@ def _servo(
     next_report = start
     tripped = False
     cycle = 0
+    waker = Waker()
     while (now := time.perf_counter()) < end:
         if now < deadline:
-            # Sleep most of the wait, spin the last 0.2 ms: sleep alone is too coarse.
-            if deadline - now > 0.0003:
-                time.sleep(deadline - now - 0.0002)
+            waker.wait_until(deadline)
             continue
         if now - deadline > period:
             # A missed deadline: count it and resume from now rather than

@@ -78,6 +78,7 @@ class Board(RobotIO):
         self._node = node
         self._channels = channels
         self._pot_read_attempts = pot_read_attempts
+        self._read_length = realtime_read_length(channels)
         self._inputs = RealtimeInputs.empty(channels)
         self._commands: list[int | None] = [None] * channels
         self._power_request: int | None = None
@@ -104,8 +105,7 @@ class Board(RobotIO):
     # --- buffer operations --------------------------------------------
     def latch_all_inputs(self) -> None:
         """One real-time block read; every ``get_`` of a latched value uses it."""
-        length = realtime_read_length(self._channels)
-        data = self._port.read_block(self._node, REALTIME_OFFSET, length)
+        data = self._port.read_block(self._node, REALTIME_OFFSET, self._read_length)
         self._inputs = parse_realtime_block(data, self._channels)
 
     def apply_all_outputs(self) -> None:
@@ -209,7 +209,11 @@ class Board(RobotIO):
     def set_motor_voltages(self, values: Sequence[int]) -> None:
         """Buffer every axis's motor command at once (DAC codes, as :meth:`set_motor_voltage`)."""
         self._one_per_axis(values)
-        self._commands = [_checked(value, DAC_MAX, "DAC code") for value in values]
+        commands: list[int | None] = list(values)
+        # One range check for the block; the first bad code names itself.
+        if min(values) < 0 or max(values) > DAC_MAX:
+            commands = [_checked(value, DAC_MAX, "DAC code") for value in values]
+        self._commands = commands
 
     # --- immediate writes ---------------------------------------------------
     def set_motor_current(self, axis: int, value: int) -> None:

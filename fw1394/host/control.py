@@ -11,8 +11,8 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+from fw1394.boards.snake2010.spec import DAC_MAX, DAC_MIDPOINT, ENCODER_BITS
 from fw1394.host.robot import RobotIO
-from fw1394.host.units import count_difference, dac_code
 
 #: Target position (encoder counts) as a function of loop time (seconds).
 Trajectory = Callable[[float], float]
@@ -53,12 +53,27 @@ class PositionLoop:
         if rate_hz <= 0:
             raise ValueError("rate_hz must be positive")
         self.io = io
-        self.trajectories = tuple(trajectories)
-        self.gains = tuple(per_axis)
+        self._trajectories = tuple(trajectories)
+        self._gains = tuple(per_axis)
+        # Per axis, what the law needs and nothing else: one tuple to unpack per axis.
+        self._laws = tuple(
+            (trajectory, gain.kp, gain.kd, gain.max_command)
+            for trajectory, gain in zip(self._trajectories, self._gains, strict=True)
+        )
         self.rate_hz = rate_hz
         self.cycle = 0
         self.errors: list[float] = [0.0] * io.num_axes
         self._previous: list[int] | None = None
+
+    @property
+    def trajectories(self) -> tuple[Trajectory, ...]:
+        """Each axis's target position over loop time."""
+        return self._trajectories
+
+    @property
+    def gains(self) -> tuple[PdGains, ...]:
+        """Each axis's gains."""
+        return self._gains
 
     @property
     def time(self) -> float:
@@ -66,23 +81,35 @@ class PositionLoop:
         return self.cycle / self.rate_hz
 
     def step(self) -> list[float]:
-        """Run one servo cycle; return each axis's position error (counts)."""
-        io, t = self.io, self.time
+        """Run one servo cycle; return each axis's position error (counts).
+
+        The law is :func:`fw1394.host.units.count_difference` and
+        :func:`~fw1394.host.units.dac_code` written out inline: it runs for every
+        axis of every cycle between the read of the last board and the first write.
+        """
+        io, t, rate = self.io, self.time, self.rate_hz
         io.latch_all_inputs()
         positions = io.get_encoder_positions()
         previous = self._previous or positions
+        errors: list[float] = []
         commands = []
-        for axis, position in enumerate(positions):
-            gains = self.gains[axis]
+        for (target, kp, kd, limit), position, before in zip(
+            self._laws, positions, previous, strict=True
+        ):
             # The counter wraps at 24 bits; compare positions through that.
-            error = count_difference(round(self.trajectories[axis](t)), position)
-            velocity = count_difference(position, previous[axis]) * self.rate_hz
-            command = gains.kp * error - gains.kd * velocity
-            limit = gains.max_command
-            commands.append(dac_code(round(min(max(command, -limit), limit))))
-            self.errors[axis] = error
+            error = ((round(target(t)) - position + _HALF_COUNT) & _COUNT_MASK) - _HALF_COUNT
+            velocity = (((position - before + _HALF_COUNT) & _COUNT_MASK) - _HALF_COUNT) * rate
+            command = kp * error - kd * velocity
+            code = DAC_MIDPOINT + round(min(max(command, -limit), limit))
+            commands.append(0 if code < 0 else DAC_MAX if code > DAC_MAX else code)
+            errors.append(error)
         io.set_motor_voltages(commands)
         io.apply_all_outputs()
         self._previous = positions
+        self.errors = errors
         self.cycle += 1
-        return list(self.errors)
+        return list(errors)
+
+
+_COUNT_MASK = (1 << ENCODER_BITS) - 1
+_HALF_COUNT = 1 << (ENCODER_BITS - 1)

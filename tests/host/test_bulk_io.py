@@ -68,3 +68,5 @@ def test_bulk_writes_check_like_the_per_axis_ones() -> None:
         robot.set_motor_voltages([0x8000] * 10)
     with pytest.raises(ValueError, match="DAC code"):
         robot.set_motor_voltages([0x8000] * 10 + [0x10000])
+    with pytest.raises(ValueError, match="DAC code -1 outside"):
+        robot.set_motor_voltages([-1] + [0x8000] * 10)
