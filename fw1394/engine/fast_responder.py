@@ -20,7 +20,7 @@ comes, so its answer is the reference's own :class:`Reply` for it (built by
 from __future__ import annotations
 
 import struct
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import MISSING, fields
 from typing import Any
 
@@ -74,6 +74,11 @@ class FastResponder:
             done = ANSWERS[delivery][Outcome.done]
             tcode = int(request.LAYOUT.tcode)
             self._handlers[tcode] = _handler(responder, request, response, method, done, read)
+
+    @property
+    def handlers(self) -> Mapping[int, Handler]:
+        """Request tcode -> its turn (:meth:`serve` without the tcode lookup)."""
+        return self._handlers
 
     @property
     def kinds(self) -> frozenset[int]:

@@ -2,7 +2,8 @@
 
 The loop is plain blocking I/O: receive a frame (the socket's receive timeout
 bounds the wait), answer requests through the link layer (:class:`ResponderLink`),
-and run the station's timers when they are due. A request is acked in one
+and run the station's timers when they are due. A common request takes that turn
+in one pass (:func:`~fw1394.transport.node_express.node_turn`). A request is acked in one
 frame that also carries the response when the policy concatenates them (same
 bus tenure); a split response is a subaction of its own.
 """
@@ -22,6 +23,7 @@ from fw1394.transport.faults import FaultConfig
 from fw1394.transport.idle import IdleStrategy
 from fw1394.transport.link import BusRefusedError, ResponderLink
 from fw1394.transport.membership import BusReset, Timing
+from fw1394.transport.node_express import node_turn
 from fw1394.transport.procs import run_until_signalled
 from fw1394.transport.station import Station
 from fw1394.transport.wire import NO_BOARD, FrameTooLarge
@@ -89,7 +91,7 @@ class Node:
 
     def run(self) -> None:
         """Serve until :meth:`stop` (or a signal handler calling it)."""
-        turn = self.link.turn
+        turn = node_turn(self.link)
         try:
             while self._running:
                 turn()

@@ -8,7 +8,8 @@
 * :mod:`~fw1394.transport.station`: one member's plumbing (node or host).
 * :mod:`~fw1394.transport.seal`: the bus key; sealing and verifying frames, replays.
 * :mod:`~fw1394.transport.link`: the link layer: frames to engine calls and back,
-  for the requester and the responder side of every member and tunnel.
+  for the requester and the responder side of every member and tunnel;
+  :mod:`~fw1394.transport.node_express`: a node's common turn in one pass.
 * :mod:`~fw1394.transport.bus_host`, :mod:`~fw1394.transport.bus_port`: the host side.
 * :mod:`~fw1394.transport.launch`, :mod:`~fw1394.transport.supervisor`,
   :mod:`~fw1394.transport.runtime`: node processes in the background (each one a

@@ -178,17 +178,17 @@ class ResponderLink(LinkLayer):
         # The common turn on flat bytes; a responder of another class (planted
         # defects) has its own rules and always takes the reference path.
         fast = FastResponder(responder) if type(responder) is Responder else None
-        self._fast = None if fast is None or not fast.kinds else fast.serve
+        self.fast = None if fast is None or not fast.kinds else fast
 
     def take(self, header: FrameHeader, payload: bytes, now: float) -> None:
         if header.kind != ASYNC_PACKET:
             return
-        fast = self._fast
+        fast = self.fast
         if fast is not None:
             sequence = header.sequence
-            answer = fast(payload, sequence, now - self.epoch)
+            answer = fast.serve(payload, sequence, now - self.epoch)
             if answer.__class__ is bytes:
-                self._send_ack(answer, header.sender_phy)
+                self.send_ack(answer, header.sender_phy)
                 return
             if answer is not None:
                 assert isinstance(answer, Reply)
@@ -196,7 +196,7 @@ class ResponderLink(LinkLayer):
                 return
         self.serve(payload, header.sender_phy, header.sequence, now)
 
-    def _send_ack(self, frame: bytes, requester: int) -> None:
+    def send_ack(self, frame: bytes, requester: int) -> None:
         """Send an ack frame payload from the fast path (the response may be behind it)."""
         try:
             self.send(ACK, requester, frame)

@@ -50,7 +50,7 @@ _MANAGED = frozenset({*CONTROL_KINDS, FrameKind.phy_packet})
 _PHY_PACKET = int(FrameKind.phy_packet)
 
 
-def _skipping(layout: struct.Struct, skipped: frozenset[int]) -> struct.Struct:
+def skipping(layout: struct.Struct, skipped: frozenset[int]) -> struct.Struct:
     """``layout`` with its fields at positions ``skipped`` read as pad bytes."""
     order = layout.format[0]
     out, position = order, 0
@@ -70,7 +70,7 @@ def _skipping(layout: struct.Struct, skipped: frozenset[int]) -> struct.Struct:
 # speed, sequence), skipping magic, version and the reserved byte (fields 0, 1
 # and 9 of the wire layout): the same bytes as :func:`parse_header` reads, for a
 # third of its cost.
-_FIELDS = _skipping(HEADER, frozenset({0, 1, 9}))
+_FIELDS = skipping(HEADER, frozenset({0, 1, 9}))
 _PREFIX = FrameHeader(0, 0, 0, 0, 0, 0).pack()[:3]  # magic and version
 _new_header = tuple.__new__
 assert _FIELDS.size == HEADER_SIZE
@@ -119,6 +119,10 @@ class Station:
         # one in verified; docs/virtual-bus.md, "Faults and threats".
         key = key_for(config)
         self._verifier = None if key is None else Verifier(key)
+        # A received frame in: the data frame for the owner, or None.
+        self._take: Callable[[bytes], tuple[FrameHeader, bytes] | None] = (
+            self.take_opened if key is None else self._open_and_take
+        )
         # One sealer, one counter, whichever way a frame leaves.
         self._seal: Callable[[bytes], bytes] = _unsealed if key is None else Sealer(key).seal
         self._put = self.medium.send if key is None else self._sealed_sender(self._seal)
@@ -232,12 +236,16 @@ class Station:
         raw = self.medium.receive()
         return None if raw is None else self._take(raw)
 
-    def _take(self, raw: bytes) -> tuple[FrameHeader, bytes] | None:
-        if self._verifier is not None:
-            opened = self._verifier.open(raw)
-            if opened is None:
-                return None  # forged or replayed: counted, never seen
-            raw = opened
+    def _open_and_take(self, raw: bytes) -> tuple[FrameHeader, bytes] | None:
+        assert self._verifier is not None
+        opened = self._verifier.open(raw)
+        if opened is None:
+            return None  # forged or replayed: counted, never seen
+        return self.take_opened(opened)
+
+    def take_opened(self, raw: bytes) -> tuple[FrameHeader, bytes] | None:
+        """A received frame, its MAC (on a keyed bus) already checked and cut off:
+        the data frame to hand the owner, or None (bus management, line noise)."""
         if raw[:3] != _PREFIX or len(raw) < HEADER_SIZE:
             return None  # not ours: nothing on a real bus answers line noise
         header: FrameHeader = _new_header(FrameHeader, _FIELDS.unpack_from(raw))

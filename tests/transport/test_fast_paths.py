@@ -52,7 +52,7 @@ def _links(policy: str, board: str = "memory") -> tuple[list[Any], list[Responde
         responder = Responder(node_id(ME), space, POLICIES[policy])
         link = ResponderLink(responder, send, epoch=0.0)
         if path == "reference":
-            link._fast = None  # the general engine only
+            link.fast = None  # the general engine only
         links.append(link)
     return sent, links
 
