@@ -60,6 +60,9 @@ class Node:
             drop_acks=True,
             idle=options.idle,
         )
+        # Idle, the node sleeps until its membership's next timer: a node has no
+        # transaction of its own to time out.
+        self.station.medium.sleep_until(self.station.next_deadline)
         # No physical ID before the first self-ID phase: the link's reset hook gives it.
         self.responder = (
             DefectiveResponder(BROADCAST_ID, space, options.policy, defects=options.defects)

@@ -17,12 +17,13 @@ from __future__ import annotations
 import socket
 import struct
 import time
+from collections.abc import Callable
 
 from fw1394.packets.nodeid import BROADCAST_PHY
 from fw1394.transport import bpf
 from fw1394.transport.config import SHARDS, BusConfig
-from fw1394.transport.idle import BLOCK, IdleStrategy, Waiter
-from fw1394.transport.wire import DESTINATION_OFFSET
+from fw1394.transport.idle import BLOCK, IdleStrategy, Waiter, set_receive_timeout
+from fw1394.transport.wire import CONTROL_KINDS, DESTINATION_OFFSET, KIND_OFFSET
 
 #: Room for bursts (a 63-node self-ID phase, back-to-back block responses).
 RECEIVE_BUFFER = 1 << 21
@@ -33,6 +34,9 @@ SO_TIMESTAMPNS = 35
 _TIMESPEC = struct.Struct("@qq")
 _DONTWAIT = socket.MSG_DONTWAIT
 _DESTINATION = DESTINATION_OFFSET
+_KIND = KIND_OFFSET
+#: Frames of this kind and above manage the bus: they expect no answer soon.
+FIRST_CONTROL_KIND = min(CONTROL_KINDS)
 
 
 class Medium:
@@ -63,7 +67,7 @@ class Medium:
             raise
         self.sock = sock
         self.idle = idle
-        self._waiter = Waiter(sock, idle, poll_interval)
+        self._waiter = Waiter(sock, idle, poll_interval, (KIND_OFFSET, FIRST_CONTROL_KIND))
         self._wait = self._waiter.receive
         self._sendto = sock.sendto
         # Sending is traffic only to a member that polls after traffic.
@@ -91,10 +95,12 @@ class Medium:
 
     @staticmethod
     def set_poll_interval(sock: socket.socket, seconds: float) -> None:
-        # A kernel receive timeout instead of select(): one system call per frame.
-        micros = max(1, int(seconds * 1e6))
-        timeval = struct.pack("@ll", micros // 1_000_000, micros % 1_000_000)
-        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVTIMEO, timeval)
+        set_receive_timeout(sock, seconds)
+
+    def sleep_until(self, deadline: Callable[[], float]) -> None:
+        """Block, when nothing comes, until ``deadline()`` (monotonic) rather than
+        for one poll interval (:attr:`fw1394.transport.idle.Waiter.deadline`)."""
+        self._waiter.deadline = deadline
 
     def _listen_on(self, groups: set[str]) -> None:
         # Joins first: a frame to the new address may be on its way already.
@@ -128,7 +134,7 @@ class Medium:
             self._sendto(frame, self.destinations[frame[_DESTINATION]])
         except (BlockingIOError, InterruptedError):
             pass
-        if self._traffic is not None:
+        if self._traffic is not None and frame[_KIND] < FIRST_CONTROL_KIND:
             self._traffic()  # the answer comes soon: be awake for it
 
     def receive(self) -> bytes | None:

@@ -27,6 +27,7 @@ class ScriptedMedium:
         self.inbox: deque[bytes] = deque()
         self.sent: list[bytes] = []
         self.when_empty: Callable[[], None] = lambda: None
+        self.deadline: Callable[[], float] | None = None
 
     def receive(self) -> bytes | None:
         if self.inbox:
@@ -39,6 +40,9 @@ class ScriptedMedium:
 
     def send(self, frame: bytes) -> None:
         self.sent.append(frame)
+
+    def sleep_until(self, deadline: Callable[[], float]) -> None:
+        self.deadline = deadline
 
     def filter_as_member(self, member_id: int, phy_id: int | None, drop_acks: bool) -> None:
         pass
@@ -56,6 +60,8 @@ def test_the_node_loop_answers_a_read_without_the_general_turn(
     node = Node(MemorySpace(64, contents=bytes(range(64))), NodeOptions(config, rank=1))
     medium = node.station.medium
     assert isinstance(medium, ScriptedMedium)
+    # Idle, the node sleeps until its membership's timers are due, not a poll interval.
+    assert medium.deadline is not None and medium.deadline() == node.station.next_deadline()
     medium.when_empty = node.stop
     reset = pack_table((HOST, node.station.info))
     request = QuadletReadRequest(destination_id=0xFFC1, tlabel=7, source_id=0xFFC0, offset=8)

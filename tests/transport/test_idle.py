@@ -14,6 +14,7 @@ from fw1394.transport.idle import (
     ADAPTIVE,
     BLOCK,
     ENVIRONMENT,
+    LONGEST_SLEEP,
     SPIN,
     IdleStrategy,
     Waiter,
@@ -90,3 +91,44 @@ def test_every_strategy_receives_and_times_out(
     assert 0.005 < time.monotonic() - started < 2.0
     sender.sendto(b"frame two", receiver.getsockname())
     assert waiter.receive(100) == b"frame two"
+
+
+def _receive_timeout(sock: socket.socket) -> float:
+    timeval = sock.getsockopt(socket.SOL_SOCKET, socket.SO_RCVTIMEO, 16)
+    seconds, micros = struct.unpack("@ll", timeval)
+    return float(seconds + micros / 1e6)
+
+
+def test_with_a_deadline_an_idle_member_sleeps_until_its_timers_are_due(
+    pair: tuple[socket.socket, socket.socket],
+) -> None:
+    receiver, _ = pair
+    waiter = Waiter(receiver, BLOCK, 0.005)
+    due = [time.monotonic() + 10.0]
+    waiter.deadline = lambda: due[0]
+    # The kernel keeps the timeout in scheduler ticks (4 or 10 ms): compare loosely.
+    tick = 0.011
+    assert waiter.receive(100) is None
+    capped = _receive_timeout(receiver)
+    assert capped == pytest.approx(LONGEST_SLEEP, abs=tick)  # far off: the cap
+    due[0] = time.monotonic() + 0.025
+    assert waiter.receive(100) is None
+    sooner = _receive_timeout(receiver)
+    assert sooner == pytest.approx(0.025, abs=tick) and sooner < capped  # shrinks
+    due[0] = time.monotonic() - 1.0
+    assert waiter.receive(100) is None
+    overdue = _receive_timeout(receiver)
+    assert overdue == pytest.approx(0.005, abs=tick) and overdue < sooner  # one poll interval
+
+
+def test_only_data_frames_open_a_polling_window(
+    pair: tuple[socket.socket, socket.socket],
+) -> None:
+    receiver, sender = pair
+    waiter = Waiter(receiver, ADAPTIVE, 0.02, quiet_kinds=(3, 16))
+    sender.sendto(bytes([0, 0, 0, 19]) + b"beacon", receiver.getsockname())
+    assert waiter.receive(100) is not None
+    assert waiter._last == -math.inf  # a beacon asks for no answer: no polling after it
+    sender.sendto(bytes([0, 0, 0, 2]) + b"ack", receiver.getsockname())
+    assert waiter.receive(100) is not None
+    assert waiter._last > 0

@@ -3,14 +3,16 @@
 from __future__ import annotations
 
 import hashlib
+import math
 import random
 import socket
 
 import pytest
 
 from fw1394.transport.config import SHARDS, BusConfig
+from fw1394.transport.idle import ADAPTIVE
 from fw1394.transport.medium import Medium
-from fw1394.transport.wire import EVERY_MEMBER, FrameHeader
+from fw1394.transport.wire import EVERY_MEMBER, FrameHeader, FrameKind
 
 SO_DETACH_FILTER = 27
 
@@ -108,5 +110,18 @@ def test_a_member_address_must_be_a_node_physical_id() -> None:
             with pytest.raises(ValueError, match="not a node's"):
                 medium.filter_as_member(member_id=5, phy_id=phy, drop_acks=False)
         medium.filter_as_member(member_id=5, phy_id=62, drop_acks=False)
+    finally:
+        medium.close()
+
+
+def test_sending_bus_management_opens_no_polling_window() -> None:
+    config = BusConfig("shard-quiet")
+    medium = Medium(config, idle=ADAPTIVE)
+    try:
+        waiter = medium._waiter
+        medium.send(FrameHeader(FrameKind.heartbeat, config.tag, 5, 0, 1, 0).pack())
+        assert waiter._last == -math.inf
+        medium.send(FrameHeader(FrameKind.async_packet, config.tag, 5, 0, 1, 2).pack())
+        assert waiter._last > 0  # a request: its answer comes soon
     finally:
         medium.close()
