@@ -6,6 +6,7 @@
     python bench/bus.py --mac      # what the keyed MAC costs per frame and per read
     python bench/bus.py --syscalls # CPU per sendto / recv: the floor of a read's CPU
     python bench/bus.py --idle block   # every process of the run blocks in recv
+    python bench/bus.py --pin      # this process on one CPU, its peers on the others
 
 Measures, between this process (the host) and node processes on loopback:
 quadlet read and write round trips (p50, p99), 512-quadlet block reads
@@ -14,7 +15,12 @@ grows to 63 members (62 nodes and the host). The raw ping-pong, quadlet reads
 and writes and 4-byte block reads (block read base latency) are timed in
 interleaved rounds (A B C D A B C D ...), so each ratio to raw comes from the
 same minutes of a shared machine; every process waits by the same idle strategy
-(``FW1394_IDLE`` or ``--idle``). CPU time per call (user + kernel, this process
+(``FW1394_IDLE`` or ``--idle``). Each round starts once the previous round's
+peer has stopped polling, after a few uncounted calls, and the context
+switches per call of each kind (wake-ups here and in its peer, preemptions
+here) say which regime it ran in: a ratio whose halves differ is flagged.
+The read's three frames with no work done (the floor) are timed in the same
+rounds. CPU time per call (user + kernel, this process
 and the node's) is printed too: it moves much less with the machine's load.
 Targets from the issue are printed beside the results; they are not asserted.
 """
@@ -29,9 +35,13 @@ import socket
 import subprocess
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from functools import partial
 from typing import Any
 
+from fw1394.experiments.regime import Regime, same_regime, settle, settle_time, switches
+from fw1394.experiments.timing import SWITCH_WARMUP, cpu_split, pin
 from fw1394.packets import AckCode, QuadletReadRequest, QuadletReadResponse
 from fw1394.packets.fast import encode_packet
 from fw1394.transport.bus_port import BusPort
@@ -148,18 +158,30 @@ def raw_ping_pong(count: int) -> dict[str, float]:
 
 
 def interleaved(
-    actions: dict[str, Callable[[], object]], count: int, rounds: int
-) -> dict[str, list[float]]:
+    actions: dict[str, Callable[[], object]],
+    count: int,
+    rounds: int,
+    peers: dict[str, list[int]] | None = None,
+) -> tuple[dict[str, list[float]], dict[str, Regime]]:
     """``count`` timings of each action, taken in ``rounds`` rounds A B C A B C ...
 
     Both halves of a ratio then come from the same minutes of a shared machine.
+    Each round starts once the previous one's peer has stopped polling, after
+    ``SWITCH_WARMUP`` uncounted calls; the context switches of each action's
+    rounds (this process's and its ``peers``') say which regime it ran in.
     """
     samples: dict[str, list[float]] = {name: [] for name in actions}
+    regimes = {name: Regime() for name in actions}
     per_round = max(1, count // rounds)
     for _ in range(rounds):
         for name, action in actions.items():
+            pids = (peers or {}).get(name, [])
+            settle()
+            before = switches(pids)
+            timed(action, SWITCH_WARMUP)
             samples[name] += timed(action, per_round)
-    return samples
+            regimes[name].add(before, switches(pids), SWITCH_WARMUP + per_round)
+    return samples, regimes
 
 
 # -- mechanisms: why multicast groups with a kernel filter ---------------------------------
@@ -227,14 +249,15 @@ def multicast_ping_pong(idle: int, filtered: bool, count: int) -> dict[str, floa
         me.close()
 
 
-def subaction_floor(count: int) -> dict[str, float]:
+@contextmanager
+def subaction_floor() -> Iterator[tuple[Callable[[], None], int]]:
     """A quadlet read's three frames on the bus, with no work done for them.
 
     Request, ack with the response concatenated, and the requester's ack of that
     response, byte for byte as a read sends them, between two filtered members of
     a group: the least any quadlet read on this bus can cost with Python at both
     ends. Whatever a real read takes beyond it is the codec, the engine and the
-    loops.
+    loops. Yields one exchange and the responder's pid.
     """
     config = BusConfig(f"floor{os.getpid()}")
     tag = config.tag
@@ -269,7 +292,7 @@ def subaction_floor(count: int) -> dict[str, float]:
             me.send(ack)
 
         timed(once, 200)
-        return percentiles(timed(once, count))
+        yield once, pid
     finally:
         os.kill(pid, signal.SIGKILL)
         os.waitpid(pid, 0)
@@ -377,37 +400,55 @@ def cpu_per_call(action: Callable[[], object], count: int, node_pid: int) -> dic
     return {"host": host, "node": node}
 
 
-def run(quick: bool, rounds: int) -> dict[str, Any]:
+def run(quick: bool, rounds: int, pin_cpus: bool = False) -> dict[str, Any]:
     samples = 2000 if quick else 10000
+    # Pinned: every process started from here inherits the peers' CPUs; this one then
+    # takes the first CPU alone, so the two ends of a round trip never share one.
+    split = cpu_split() if pin_cpus else None
+    if split is not None:
+        pin([0], split[1])
     results: dict[str, Any] = {
         "cpus": os.cpu_count(),
+        "pinned": split is not None,
         "idle": str(default_idle()),
         "rounds": rounds,
+        "round_switch_settle_ms": round(settle_time(default_idle()) * 1000, 3),
         "load_average_before": os.getloadavg()[0],
-        "subaction_floor": subaction_floor(samples),
     }
     name = f"bench{os.getpid()}"
     nodes = Nodes(name)
     echo = RawEcho()
     try:
         nodes.grow(1)
-        with BusPort(BusConfig(name), timing=TIMING) as port:
+        with BusPort(BusConfig(name), timing=TIMING) as port, subaction_floor() as floor:
             wait_for_nodes(port, 1)
             node_pid = nodes.processes[0].pid
+            floor_once, floor_pid = floor
+            if split is not None:
+                pin([0], split[0])
             actions: dict[str, Callable[[], object]] = {
                 "raw_udp": echo.once,
+                "subaction_floor": floor_once,
                 "quadlet_read": lambda: port.read_quadlet(0, 0),
                 "quadlet_write": lambda: port.write_quadlet(0, 0, 1),
                 "block_read_4": lambda: port.read_block(0, 0, 4),
             }
+            peers = {name: [node_pid] for name in actions}
+            peers.update(raw_udp=[echo.echo.pid], subaction_floor=[floor_pid])
             interleaved(actions, 500, 5)  # warm-up
-            timings = interleaved(actions, samples, rounds)
+            timings, regimes = interleaved(actions, samples, rounds, peers)
             for key, values in timings.items():
                 results[key] = percentiles(values)
             raw = results["raw_udp"]["p50_us"]
             results["ratios_p50"] = {
                 key: round(results[key]["p50_us"] / raw, 2)
-                for key in ("quadlet_read", "quadlet_write", "block_read_4")
+                for key in ("subaction_floor", "quadlet_read", "quadlet_write", "block_read_4")
+            }
+            results["regime"] = {key: regime.as_dict() for key, regime in regimes.items()}
+            results["same_regime_as_raw"] = {
+                key: same_regime(regimes["raw_udp"], regime)
+                for key, regime in regimes.items()
+                if key != "raw_udp"
             }
             # The floor of the CPU figures: a raw round trip's sendto and recv.
             results["raw_udp"]["cpu_us"] = cpu_per_call(echo.once, samples, echo.echo.pid)
@@ -426,6 +467,8 @@ def run(quick: bool, rounds: int) -> dict[str, Any]:
             scaling = {}
             for count in QUICK_COUNTS if quick else NODE_COUNTS:
                 nodes.grow(count)
+                if split is not None:
+                    pin([process.pid for process in nodes.processes], split[1])
                 wait_for_nodes(port, count)
                 timed(lambda: port.read_quadlet(0, 0), 200)
                 reads = timed(lambda: port.read_quadlet(0, 0), samples // 4)
@@ -489,10 +532,10 @@ def mac_cost(quick: bool) -> dict[str, Any]:
                 bus.start()
                 ports[mode] = BusPort(bus.member_config, timing=TIMING)
                 wait_for_nodes(ports[mode], 1)
-                timed(lambda port=ports[mode]: port.read_quadlet(0, 0), 300)
+                timed(partial(ports[mode].read_quadlet, 0, 0), 300)
             for _ in range(rounds):  # interleaved: both see the same machine
                 for mode, port in ports.items():
-                    samples[mode] += timed(lambda port=port: port.read_quadlet(0, 0), per_round)
+                    samples[mode] += timed(partial(port.read_quadlet, 0, 0), per_round)
         finally:
             for port in ports.values():
                 port.close()
@@ -561,6 +604,7 @@ def report(results: dict[str, Any]) -> None:
         f"cpus: {results['cpus']}, idle strategy: {results['idle']}, load average "
         f"{results['load_average_before']} before, {results['load_average_after']} after; "
         f"raw and bus timed in {results['rounds']} interleaved rounds"
+        + ("; this process on one CPU, its peers on the others" if results["pinned"] else "")
     )
     print(f"raw Python UDP ping-pong    p50 {raw:7.1f} us  p99 {results['raw_udp']['p99_us']} us")
     goals = {"quadlet_read": 1.5, "quadlet_write": 1.3, "block_read_4": 2.0}
@@ -577,6 +621,22 @@ def report(results: dict[str, Any]) -> None:
         f"  the read's three frames with no work done (the floor): p50 {floor:.1f} us, "
         f"{floor / raw:.2f}x raw; the read costs {read - floor:.1f} us more"
     )
+    regime = results["regime"]
+    print(
+        f"  regime, per call (wake-ups here / the peer's wake-ups / preemptions here), "
+        f"rounds settled {results['round_switch_settle_ms']} ms: "
+        + ", ".join(
+            f"{key} {row['wakeups_per_call']}/{row['peer_wakeups_per_call']}/"
+            f"{row['preemptions_per_call']}"
+            for key, row in regime.items()
+        )
+    )
+    differ = [key for key, same in results["same_regime_as_raw"].items() if not same]
+    if differ:
+        print(
+            f"  warning: {', '.join(differ)} ran in another regime than the raw ping-pong "
+            "(slept or shared a CPU where it polled on its own): those ratios compare regimes"
+        )
     cpu = results["quadlet_read"].get("cpu_us")
     if cpu:
         print(
@@ -624,6 +684,11 @@ def main() -> int:
         "(default: FW1394_IDLE, else adaptive)",
     )
     parser.add_argument(
+        "--pin",
+        action="store_true",
+        help="this process on one CPU, the echo and the nodes on the others (steadier ratios)",
+    )
+    parser.add_argument(
         "--mechanisms",
         action="store_true",
         help="compare transports (unicast, hub relay, multicast with and without filter)",
@@ -654,7 +719,7 @@ def main() -> int:
         except ValueError as error:
             parser.exit(2, f"bench/bus.py: {error}\n")
         os.environ["FW1394_IDLE"] = args.idle  # the nodes and the echo inherit it
-    results = run(args.quick, max(1, args.rounds))
+    results = run(args.quick, max(1, args.rounds), args.pin)
     if args.json:
         print(json.dumps(results))
     else:

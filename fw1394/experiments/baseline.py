@@ -64,6 +64,11 @@ class Baseline:
     failures: int
 
     @property
+    def calls(self) -> int:
+        """Round trips made for these samples, failed ones included (warm-ups not)."""
+        return len(self.small) + len(self.block) + self.failures
+
+    @property
     def unit_us(self) -> float:
         """The median small round trip: the ratio unit of the whole run."""
         return summarize(self.small).p50_us

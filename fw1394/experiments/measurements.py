@@ -12,6 +12,7 @@ from fw1394.experiments.baseline import Baseline, merged
 from fw1394.experiments.bench_targets import BusTarget, Target
 from fw1394.experiments.phase_progress import Progress
 from fw1394.experiments.private_bus import PrivateBus
+from fw1394.experiments.regime import Regime, settle, switches
 from fw1394.experiments.timing import (
     SWITCH_WARMUP,
     FailureBudget,
@@ -108,29 +109,43 @@ def measure_blocks_interleaved(
     raw_count: int,
     warmup: int,
     progress: Progress,
+    regimes: tuple[Regime, Regime] | None = None,
+    raw_peers: Sequence[int] = (),
 ) -> tuple[BlockRun, Baseline]:
     """``passes`` sweeps over ``sizes``, each after a round of ``raw_count`` raw round trips.
 
     Returns the block times and the raw rounds of these same minutes: the
     unit of the block figures (raw, pass, raw, pass ...). The first pass
     starts after ``warmup`` uncounted transactions, every later round, raw or
-    block, after :data:`SWITCH_WARMUP`.
+    block, after :data:`SWITCH_WARMUP`; every round after a pause that lets
+    the other half's processes stop polling (:func:`~fw1394.experiments.regime.settle`).
+    ``regimes`` (raw, blocks), if given, count each half's context switches;
+    ``raw_peers`` are the processes of the raw rounds (the echo).
     """
+    raw_regime, block_regime = regimes or (Regime(), Regime())
     passes_run: list[BlockRun] = []
     floors: list[Baseline] = []
     progress.start("block reads and writes, interleaved", passes)
     for number in range(passes):
-        floors.append(raw.round(raw_count, warmup=SWITCH_WARMUP))
-        passes_run.append(
-            measure_blocks(
-                target,
-                sizes,
-                1,
-                warmup=warmup if number == 0 else SWITCH_WARMUP,
-                progress=Progress(enabled=False),
-                seed=1394 + number,
-            )
+        settle()
+        before = switches(raw_peers)
+        floor = raw.round(raw_count, warmup=SWITCH_WARMUP)
+        raw_regime.add(before, switches(raw_peers), floor.calls + SWITCH_WARMUP)
+        floors.append(floor)
+        settle()
+        pass_warmup = warmup if number == 0 else SWITCH_WARMUP
+        before = switches(target.peer_pids())
+        run = measure_blocks(
+            target,
+            sizes,
+            1,
+            warmup=pass_warmup,
+            progress=Progress(enabled=False),
+            seed=1394 + number,
         )
+        calls = 2 * (len(sizes) + pass_warmup) + run.failures
+        block_regime.add(before, switches(target.peer_pids()), calls)
+        passes_run.append(run)
         progress.update(number + 1)
     progress.finish()
     return _merged_blocks(passes_run), merged(floors)

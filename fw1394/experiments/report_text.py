@@ -51,12 +51,49 @@ def _heading(digest: dict[str, Any]) -> str:
             f"{block['raw_round_trip_p50_us']:.1f} us ({block['raw_block_round_trip_p50_us']:.1f} "
             f"with a 2048-byte reply); {block['fit']}"
         )
+    lines += _regime_lines(digest.get("regime"), machine)
     if not target.get("writes_acknowledged", True):
         lines.append(
             "note: Eth1394 writes are not answered; a write's time is its send time, as the "
             "JHU host library sees it"
         )
     return "\n".join(lines)
+
+
+#: The halves of each ratio, as the regime section names them, and how the report says so.
+_HALVES = (("raw", "raw"), ("quadlet", "quadlets"), ("block_raw", "block raw"), ("block", "blocks"))
+
+
+def _regime_lines(regime: dict[str, Any] | None, machine: dict[str, Any]) -> list[str]:
+    """Per call of each half: the bench's wake-ups, the peers' wake-ups and the bench's
+    preemptions; and a warning for a ratio whose halves differ."""
+    if not regime:
+        return []
+    shown = [
+        "{} {}/{}/{}".format(
+            label,
+            *(_per(regime[name][key]) for key in ("wakeups_per_call", "peer_wakeups_per_call")),
+            _per(regime[name]["preemptions_per_call"]),
+        )
+        for name, label in _HALVES
+        if name in regime
+    ]
+    lines = [
+        f"regime: idle {machine.get('idle', '?')}; per call, bench wake-ups/peers' "
+        "wake-ups/bench preemptions: " + ", ".join(shown)
+    ]
+    differ = [ratio for ratio, same in regime["same_regime"].items() if not same]
+    if differ:
+        lines.append(
+            f"warning: the {' and '.join(differ)} figures divide halves that ran in different "
+            "regimes (one slept or shared a CPU where the other polled on its own), so their "
+            "x raw compares the regimes as much as the stacks; run again, or with --pin"
+        )
+    return lines
+
+
+def _per(value: float | None) -> str:
+    return "?" if value is None else f"{value:.2f}"
 
 
 def _load(values: Sequence[float]) -> str:

@@ -21,6 +21,7 @@ from fw1394.experiments.bands import find_bands
 from fw1394.experiments.baseline import Baseline
 from fw1394.experiments.fit import LineFit, fit_medians
 from fw1394.experiments.measurements import BlockRun, QuadletRun, ScalePoint
+from fw1394.experiments.regime import Regime, same_regime
 from fw1394.experiments.run import BenchResult
 from fw1394.experiments.summary import summarize
 
@@ -53,7 +54,24 @@ def digest(result: BenchResult) -> dict[str, Any]:
     out["servo"] = servo_section(result.quadlets, fits, unit, block_unit)
     if result.scale or result.scale_skipped:
         out["scale"] = scale_section(result.scale, unit, result.scale_skipped)
+    if result.regimes:
+        out["regime"] = regime_section(result.regimes)
     return out
+
+
+#: The halves each ratio divides: (raw rounds, target rounds).
+RATIO_HALVES = {"quadlet": ("raw", "quadlet"), "block": ("block_raw", "block")}
+
+
+def regime_section(regimes: dict[str, Regime]) -> dict[str, Any]:
+    """Each half's context switches per call, and whether the halves of each ratio agree."""
+    section: dict[str, Any] = {name: regime.as_dict() for name, regime in regimes.items()}
+    section["same_regime"] = {
+        ratio: same_regime(regimes[raw], regimes[target])
+        for ratio, (raw, target) in RATIO_HALVES.items()
+        if raw in regimes and target in regimes
+    }
+    return section
 
 
 def thesis_numbers() -> dict[str, Any]:

@@ -22,6 +22,7 @@ from fw1394.experiments.measurements import (
 )
 from fw1394.experiments.phase_progress import Progress
 from fw1394.experiments.private_bus import PrivateBus
+from fw1394.experiments.regime import Regime, settle, settle_time, switches
 from fw1394.experiments.run_settings import Settings
 from fw1394.experiments.summary import summarize
 from fw1394.experiments.timing import SWITCH_WARMUP, cpu_split, pin
@@ -45,6 +46,9 @@ class BenchResult:
     block_baseline: Baseline | None = None
     scale: list[ScalePoint] = field(default_factory=list)
     scale_skipped: str | None = None
+    #: Context switches of each half of the interleaved rounds: "raw" and "quadlet",
+    #: "block_raw" and "block" (:mod:`fw1394.experiments.regime`).
+    regimes: dict[str, Regime] = field(default_factory=dict)
 
 
 def machine_info(pinned: bool) -> dict[str, object]:
@@ -57,6 +61,8 @@ def machine_info(pinned: bool) -> dict[str, object]:
         "load_average_before": [round(v, 2) for v in os.getloadavg()],
         # How every process of the run waited for frames (the echo included).
         "idle": str(default_idle()),
+        # How long each round switch waits for the other half to stop polling.
+        "round_switch_settle_ms": round(settle_time(default_idle()) * 1000, 3),
         "interleaved_rounds": ROUNDS,
         "started": time.strftime("%Y-%m-%d %H:%M:%S %z"),
     }
@@ -102,8 +108,10 @@ def _measure(
         ) as (target, bus):
             if peers is not None:
                 pin(target.peer_pids(), peers)
-            floor, quadlets = _interleaved(echo, target, settings, progress)
+            regimes = {"raw": Regime(), "quadlet": Regime()}
+            floor, quadlets = _interleaved(echo, target, settings, progress, regimes)
             result = BenchResult(settings, target.describe(), machine, floor, quadlets)
+            result.regimes = regimes
             _the_rest(echo, result, target, bus, settings, progress)
     finally:
         echo.close()
@@ -112,18 +120,28 @@ def _measure(
 
 
 def _interleaved(
-    echo: baseline.Echo, target: Target, settings: Settings, progress: Progress
+    echo: baseline.Echo,
+    target: Target,
+    settings: Settings,
+    progress: Progress,
+    regimes: dict[str, Regime],
 ) -> tuple[Baseline, QuadletRun | None]:
     """The baseline, and the quadlet figures if asked for, in alternating rounds.
 
     Round by round (raw, target, raw, target ...) both halves of each ratio see
     the same load on a shared machine; one block of each would compare minutes
-    that may differ by a factor of three.
+    that may differ by a factor of three. Each round starts once the other
+    half's processes have stopped polling (:func:`~fw1394.experiments.regime.settle`),
+    and ``regimes`` counts each half's context switches.
     """
+    echo_pids = [echo.echo.pid]
     if not settings.runs("quadlet"):
         progress.start("raw UDP ping-pong", settings.baseline_iterations)
+        before = switches(echo_pids)
         floor = echo.round(settings.baseline_iterations, warmup=settings.warmup)
+        regimes["raw"].add(before, switches(echo_pids), floor.calls + settings.warmup)
         progress.finish(f"median {summarize(floor.small).p50_us:.1f} us")
+        del regimes["quadlet"]
         return floor, None
     quiet = Progress(enabled=False)
     floors: list[Baseline] = []
@@ -131,9 +149,18 @@ def _interleaved(
     progress.start("raw UDP ping-pong and quadlets, interleaved", ROUNDS)
     for number in range(ROUNDS):
         warmup = settings.warmup if number == 0 else SWITCH_WARMUP
-        floors.append(echo.round(max(settings.baseline_iterations // ROUNDS, 10), warmup=warmup))
+        settle()
+        before = switches(echo_pids)
+        floor = echo.round(max(settings.baseline_iterations // ROUNDS, 10), warmup=warmup)
+        regimes["raw"].add(before, switches(echo_pids), floor.calls + warmup)
+        floors.append(floor)
         iterations = max(settings.quadlet_iterations // ROUNDS, 10)
-        runs.append(measure_quadlets(target, iterations, warmup=warmup, progress=quiet))
+        settle()
+        before = switches(target.peer_pids())
+        run = measure_quadlets(target, iterations, warmup=warmup, progress=quiet)
+        calls = len(run.read) + len(run.write) + 2 * warmup + run.failures
+        regimes["quadlet"].add(before, switches(target.peer_pids()), calls)
+        runs.append(run)
         progress.update(number + 1)
     floor = baseline.merged(floors)
     progress.finish(f"raw median {summarize(floor.small).p50_us:.1f} us")
@@ -154,6 +181,7 @@ def _the_rest(
     progress: Progress,
 ) -> None:
     if settings.runs("block"):
+        block_regimes = result.regimes["block_raw"], result.regimes["block"] = Regime(), Regime()
         result.blocks, result.block_baseline = measure_blocks_interleaved(
             target,
             echo,
@@ -162,6 +190,8 @@ def _the_rest(
             raw_count=max(settings.baseline_iterations // ROUNDS, 10),
             warmup=min(settings.warmup, 100),
             progress=progress,
+            regimes=block_regimes,
+            raw_peers=[echo.echo.pid],
         )
         result.baseline = baseline.merged([result.baseline, result.block_baseline])
     if settings.runs("scale"):

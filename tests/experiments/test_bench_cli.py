@@ -18,9 +18,12 @@ from fw1394.cli.bench import size_list
 from fw1394.cli.common import CliError
 from fw1394.cli.main import main
 from fw1394.experiments.connect import TargetSpec, parse_target
+from fw1394.experiments.regime import settle_time
 from fw1394.experiments.report_text import render
+from fw1394.experiments.timing import SWITCH_WARMUP
 from fw1394.transport.config import BusConfig
 from fw1394.transport.eth1394_addresses import Endpoint
+from fw1394.transport.idle import default_idle
 from fw1394.transport.launch import LaunchedBus
 
 SMALL = ["--iterations", "300", "--sizes", "1,8,64,512", "--passes", "2", "--quiet", "--json"]
@@ -86,9 +89,27 @@ def test_quick_run_on_a_fresh_virtual_bus(capsys: pytest.CaptureFixture[str]) ->
     assert result["thesis"]["quadlet"]["read"]["mean_us"] == 34.5
     assert result["machine"]["load_average_after"]
     assert "quadlet read, bands" in render(result)
+    check_regime(result)
     assert elapsed < 25, f"--quick took {elapsed:.1f} s"
     # The bench's bus, supervisor and added nodes are all gone.
     assert wait_until_gone(result["target"]["bus"]) == []
+
+
+def check_regime(result: dict[str, Any]) -> None:
+    """Each half's switches per call: counted over every call, warm-ups included."""
+    regime = result["regime"]
+    # 10 rounds of 100 + 25 raw round trips; the first round warms up with 100, the rest 10.
+    assert regime["raw"]["calls"] >= 10 * 125 + 100 + 9 * SWITCH_WARMUP
+    assert regime["quadlet"]["calls"] >= 2 * (1000 + 100 + 9 * SWITCH_WARMUP)
+    assert regime["block_raw"]["calls"] >= 20 * (125 + SWITCH_WARMUP)
+    assert regime["block"]["calls"] >= 2 * (20 * 10 + 100 + 19 * SWITCH_WARMUP)
+    for half in ("raw", "quadlet", "block_raw", "block"):
+        for key in ("wakeups_per_call", "peer_wakeups_per_call", "preemptions_per_call"):
+            assert 0 <= regime[half][key] < 5, (half, key, regime[half])
+    assert set(regime["same_regime"]) == {"quadlet", "block"}
+    settle_ms = result["machine"]["round_switch_settle_ms"]
+    assert settle_ms == pytest.approx(settle_time(default_idle()) * 1000)
+    assert "regime: idle" in render(result)
 
 
 @pytest.fixture

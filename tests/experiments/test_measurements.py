@@ -6,11 +6,14 @@ from types import SimpleNamespace
 
 import pytest
 
+from fw1394.experiments import regime as regime_module
 from fw1394.experiments import timing
 from fw1394.experiments.baseline import Baseline
 from fw1394.experiments.measurements import measure_blocks_interleaved
 from fw1394.experiments.phase_progress import Progress
+from fw1394.experiments.regime import SETTLE_MIN_S, Regime
 from fw1394.experiments.run_settings import FULL, QUICK, Settings
+from fw1394.transport.idle import ENVIRONMENT
 
 COLD_US = 300.0
 RAW_US = 15.0
@@ -93,6 +96,37 @@ def test_every_pass_follows_a_raw_round_and_no_sample_is_a_wake_up(peer: Peer) -
     assert warmups == [2 * 30] + [2 * timing.SWITCH_WARMUP] * 5
     # The block figures' unit is these rounds' raw round trips alone.
     assert len(floor.small) == 6 * 50 and floor.unit_us == RAW_US
+
+
+def test_every_round_starts_settled_and_each_half_is_counted(
+    peer: Peer, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    raw = RawRounds(peer)
+    settled: list[tuple[float, int, int]] = []  # (seconds, raw rounds so far, block calls so far)
+
+    def sleep(seconds: float) -> None:
+        settled.append((seconds, len(raw.rounds), len(peer.calls)))
+
+    monkeypatch.setattr(regime_module, "_sleep", sleep)
+    monkeypatch.setenv(ENVIRONMENT, "adaptive")
+    sizes = (1, 8, 64, 512)
+    regimes = (Regime(), Regime())
+    measure_blocks_interleaved(
+        peer, raw, sizes, 6, raw_count=50, warmup=30, progress=Progress(enabled=False),
+        regimes=regimes,
+    )  # fmt: skip
+    assert [seconds for seconds, _, _ in settled] == [SETTLE_MIN_S] * 12
+    starts = [calls for _, _, calls in raw.rounds]
+    for number in range(6):
+        # Before the raw round: the previous pass is over, the raw round not begun.
+        assert settled[2 * number][1:] == (number, starts[number])
+        # Before the pass: its raw round is over, none of its block calls made.
+        assert settled[2 * number + 1][1:] == (number + 1, starts[number])
+    raw_regime, block_regime = regimes
+    # Each raw round: 50 small and 12 block-sized round trips after 10 warm-ups.
+    assert raw_regime.calls == 6 * (50 + 12 + timing.SWITCH_WARMUP)
+    assert block_regime.calls == len(peer.calls)
+    assert block_regime.peer_wakeups == 0  # a target without processes has no peers to count
 
 
 @pytest.mark.parametrize("plan", [QUICK, FULL], ids=["quick", "full"])

@@ -7,6 +7,7 @@ import pytest
 
 from fw1394.experiments.baseline import Baseline
 from fw1394.experiments.measurements import BlockRun, QuadletRun
+from fw1394.experiments.regime import Regime
 from fw1394.experiments.report_text import render
 from fw1394.experiments.results import digest
 from fw1394.experiments.run import BenchResult
@@ -64,3 +65,28 @@ def test_the_block_servo_cycle_has_the_block_unit_and_the_text_names_it() -> Non
     text = render(numbers)
     assert "interleaved with the block passes, p50 10.0 us" in text
     assert "block read, fit: r²" in text
+
+
+def _with_regimes(raw_wakeups: int) -> BenchResult:
+    run = synthetic_run()
+    run.regimes = {
+        "raw": Regime(1000, raw_wakeups, 0, 0),
+        "quadlet": Regime(2000, 0, 0, 20),
+        "block_raw": Regime(500, 0, 0, None),
+        "block": Regime(800, 8, 400, None),
+    }
+    return run
+
+
+def test_the_regime_of_each_half_and_a_warning_when_a_ratio_mixes_them() -> None:
+    numbers = digest(_with_regimes(raw_wakeups=0))
+    regime = numbers["regime"]
+    assert regime["raw"]["calls"] == 1000 and regime["quadlet"]["peer_wakeups_per_call"] == 0.01
+    assert regime["block"]["preemptions_per_call"] == 0.5
+    assert regime["same_regime"] == {"quadlet": True, "block": False}
+    text = render(numbers)
+    assert "block raw 0.00/?/0.00, blocks 0.01/?/0.50" in text
+    assert "warning: the block figures divide halves that ran in different regimes" in text
+    mixed = render(digest(_with_regimes(raw_wakeups=900)))
+    assert "warning: the quadlet and block figures" in mixed
+    assert "regime:" not in render(digest(synthetic_run()))  # a run that counted nothing
