@@ -94,7 +94,7 @@ def _quadlets(pyplot: Any, run: QuadletRun) -> Any:
                 fontsize=7,
             )
         histogram.set_xlabel("transactions")
-        histogram.xaxis.set_major_locator(MaxNLocator(integer=True))
+        histogram.xaxis.set_major_locator(MaxNLocator(nbins=3, integer=True))
     axes[1][0].set_xlabel("iteration")
     return figure
 
