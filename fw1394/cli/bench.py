@@ -4,7 +4,12 @@ Quadlet reads and writes (9,000 each, bands, mean and percentiles), block
 reads and writes of every size up to 512 quadlets (base latency and
 throughput from a linear fit), the seven-axis servo budget at 1, 8 and
 10 kHz, quadlet read latency as the bus grows to 63 nodes, and a raw UDP
-ping-pong of the same run that every figure is divided by.
+ping-pong of the same run that every figure is divided by. On a bus target, a
+quadlet read's three frames with no work done (the transport's floor) are timed
+in the same rounds. Every round starts once the other half has stopped polling,
+and each half's wake-ups and preemptions per call are reported: a ratio whose
+halves ran in different regimes is flagged (--pin keeps the two ends of a
+round trip on different CPUs).
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ EXAMPLES = """\
 examples:
   fw1394 bench                               full run on a fresh virtual bus (a few minutes)
   fw1394 bench --quick --json                the CI run (under 20 s)
+  fw1394 bench --quick --pin                 bench on one CPU, its peers on the others
   fw1394 bench --plots docs/performance      PNG figures in the thesis's form
   fw1394 bench --target bus:default/0        node 0 of a bus that is up (fw1394 bus up)
   fw1394 jhu serve --eth1394 127.0.0.1:11394 &

@@ -44,6 +44,14 @@ def _heading(digest: dict[str, Any]) -> str:
         f"{base['block_round_trip']['p50_us']:.1f} us ({base['block_mbit_s']:.0f} Mbit/s "
         "one at a time)",
     ]
+    floor = digest.get("frame_floor")
+    if floor:
+        above = floor.get("read_above_p50_us")
+        lines.append(
+            f"a quadlet read's {floor['frames']} frames with no work done (this transport's "
+            f"floor): p50 {floor['p50_us']:.1f} us, x{floor['x_p50']:.2f} raw"
+            + ("" if above is None else f"; the read's p50 is {above:.1f} us above it")
+        )
     block = digest.get("block")
     if block:
         lines.append(
@@ -61,7 +69,13 @@ def _heading(digest: dict[str, Any]) -> str:
 
 
 #: The halves of each ratio, as the regime section names them, and how the report says so.
-_HALVES = (("raw", "raw"), ("quadlet", "quadlets"), ("block_raw", "block raw"), ("block", "blocks"))
+_HALVES = (
+    ("raw", "raw"),
+    ("floor", "floor"),
+    ("quadlet", "quadlets"),
+    ("block_raw", "block raw"),
+    ("block", "blocks"),
+)
 
 
 def _regime_lines(regime: dict[str, Any] | None, machine: dict[str, Any]) -> list[str]:
@@ -82,7 +96,7 @@ def _regime_lines(regime: dict[str, Any] | None, machine: dict[str, Any]) -> lis
         f"regime: idle {machine.get('idle', '?')}; per call, bench wake-ups/peers' "
         "wake-ups/bench preemptions: " + ", ".join(shown)
     ]
-    differ = [ratio for ratio, same in regime["same_regime"].items() if not same]
+    differ = [ratio.replace("_", " ") for ratio, same in regime["same_regime"].items() if not same]
     if differ:
         lines.append(
             f"warning: the {' and '.join(differ)} figures divide halves that ran in different "

@@ -20,6 +20,7 @@ from fw1394.experiments import servo, thesis
 from fw1394.experiments.bands import find_bands
 from fw1394.experiments.baseline import Baseline
 from fw1394.experiments.fit import LineFit, fit_medians
+from fw1394.experiments.frame_floor import FRAMES
 from fw1394.experiments.measurements import BlockRun, QuadletRun, ScalePoint
 from fw1394.experiments.regime import Regime, same_regime
 from fw1394.experiments.run import BenchResult
@@ -44,6 +45,8 @@ def digest(result: BenchResult) -> dict[str, Any]:
     block_unit = unit
     if result.quadlets is not None:
         out["quadlet"] = quadlet_section(result.quadlets, unit)
+    if result.frame_floor:
+        out["frame_floor"] = frame_floor_section(result.frame_floor, result.quadlets, unit)
     if result.blocks is not None and result.block_baseline is not None:
         fits = {
             "read": fit_medians(result.blocks.read),
@@ -60,7 +63,11 @@ def digest(result: BenchResult) -> dict[str, Any]:
 
 
 #: The halves each ratio divides: (raw rounds, target rounds).
-RATIO_HALVES = {"quadlet": ("raw", "quadlet"), "block": ("block_raw", "block")}
+RATIO_HALVES = {
+    "quadlet": ("raw", "quadlet"),
+    "frame_floor": ("raw", "floor"),
+    "block": ("block_raw", "block"),
+}
 
 
 def regime_section(regimes: dict[str, Regime]) -> dict[str, Any]:
@@ -109,6 +116,21 @@ def quadlet_section(run: QuadletRun, unit: float) -> dict[str, Any]:
             # Stalls of a millisecond or more: the machine, not the bus (see docs/performance.md).
             "over_1ms": sum(1 for sample in samples if sample >= STALL_US),
         }
+    return section
+
+
+def frame_floor_section(
+    samples: list[float], quadlets: QuadletRun | None, unit: float
+) -> dict[str, Any]:
+    """A quadlet read's three bare frames: what this transport costs before any stack.
+
+    ``read_above_p50_us``: how far the read's median lies above the floor's, the
+    work of both ends' stacks and the board.
+    """
+    floor = summarize(samples)
+    section: dict[str, Any] = {"frames": FRAMES, **floor.as_dict(unit)}
+    if quadlets is not None and quadlets.read:
+        section["read_above_p50_us"] = round(summarize(quadlets.read).p50_us - floor.p50_us, 2)
     return section
 
 

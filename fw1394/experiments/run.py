@@ -12,6 +12,7 @@ from fw1394.experiments import baseline
 from fw1394.experiments.baseline import Baseline
 from fw1394.experiments.bench_targets import Target
 from fw1394.experiments.connect import TargetSpec, open_target
+from fw1394.experiments.frame_floor import FrameFloor
 from fw1394.experiments.measurements import (
     BlockRun,
     QuadletRun,
@@ -46,9 +47,12 @@ class BenchResult:
     block_baseline: Baseline | None = None
     scale: list[ScalePoint] = field(default_factory=list)
     scale_skipped: str | None = None
-    #: Context switches of each half of the interleaved rounds: "raw" and "quadlet",
-    #: "block_raw" and "block" (:mod:`fw1394.experiments.regime`).
+    #: Context switches of each half of the interleaved rounds: "raw", "floor" and
+    #: "quadlet", "block_raw" and "block" (:mod:`fw1394.experiments.regime`).
     regimes: dict[str, Regime] = field(default_factory=dict)
+    #: A quadlet read's three frames with no work done, timed in the quadlet rounds
+    #: (:mod:`fw1394.experiments.frame_floor`); None for a target of another transport.
+    frame_floor: list[float] | None = None
 
 
 def machine_info(pinned: bool) -> dict[str, object]:
@@ -101,6 +105,8 @@ def _measure(
     peers = None if split is None else split[1]
     machine = machine_info(split is not None)
     echo = baseline.Echo(peers)
+    # A read's bare frames are the floor of the virtual bus; Eth1394 is another transport.
+    frames = FrameFloor(peers) if spec.kind != "udp" else None
     try:
         progress.note("starting the target ...")
         with open_target(
@@ -109,52 +115,67 @@ def _measure(
             if peers is not None:
                 pin(target.peer_pids(), peers)
             regimes = {"raw": Regime(), "quadlet": Regime()}
-            floor, quadlets = _interleaved(echo, target, settings, progress, regimes)
-            result = BenchResult(settings, target.describe(), machine, floor, quadlets)
+            raw, quadlets, floor = _interleaved(echo, frames, target, settings, progress, regimes)
+            result = BenchResult(settings, target.describe(), machine, raw, quadlets)
+            result.frame_floor = floor
             result.regimes = regimes
             _the_rest(echo, result, target, bus, settings, progress)
     finally:
         echo.close()
+        if frames is not None:
+            frames.close()
     machine["load_average_after"] = [round(v, 2) for v in os.getloadavg()]
     return result
 
 
 def _interleaved(
     echo: baseline.Echo,
+    frames: FrameFloor | None,
     target: Target,
     settings: Settings,
     progress: Progress,
     regimes: dict[str, Regime],
-) -> tuple[Baseline, QuadletRun | None]:
-    """The baseline, and the quadlet figures if asked for, in alternating rounds.
+) -> tuple[Baseline, QuadletRun | None, list[float] | None]:
+    """The baseline, and the quadlet figures and the frame floor if asked for, in
+    alternating rounds.
 
-    Round by round (raw, target, raw, target ...) both halves of each ratio see
-    the same load on a shared machine; one block of each would compare minutes
-    that may differ by a factor of three. Each round starts once the other
-    half's processes have stopped polling (:func:`~fw1394.experiments.regime.settle`),
-    and ``regimes`` counts each half's context switches.
+    Round by round (raw, floor, target, raw, floor, target ...) every half of
+    each ratio sees the same load on a shared machine; one block of each would
+    compare minutes that may differ by a factor of three. Each round starts
+    once the other halves' processes have stopped polling
+    (:func:`~fw1394.experiments.regime.settle`), and ``regimes`` counts each
+    half's context switches.
     """
     echo_pids = [echo.echo.pid]
     if not settings.runs("quadlet"):
         progress.start("raw UDP ping-pong", settings.baseline_iterations)
         before = switches(echo_pids)
-        floor = echo.round(settings.baseline_iterations, warmup=settings.warmup)
-        regimes["raw"].add(before, switches(echo_pids), floor.calls + settings.warmup)
-        progress.finish(f"median {summarize(floor.small).p50_us:.1f} us")
+        raw = echo.round(settings.baseline_iterations, warmup=settings.warmup)
+        regimes["raw"].add(before, switches(echo_pids), raw.calls + settings.warmup)
+        progress.finish(f"median {summarize(raw.small).p50_us:.1f} us")
         del regimes["quadlet"]
-        return floor, None
+        return raw, None, None
+    if frames is not None:
+        regimes["floor"] = Regime()
     quiet = Progress(enabled=False)
-    floors: list[Baseline] = []
+    raws: list[Baseline] = []
     runs: list[QuadletRun] = []
+    floor: list[float] = []
     progress.start("raw UDP ping-pong and quadlets, interleaved", ROUNDS)
     for number in range(ROUNDS):
         warmup = settings.warmup if number == 0 else SWITCH_WARMUP
         settle()
         before = switches(echo_pids)
-        floor = echo.round(max(settings.baseline_iterations // ROUNDS, 10), warmup=warmup)
-        regimes["raw"].add(before, switches(echo_pids), floor.calls + warmup)
-        floors.append(floor)
+        raw = echo.round(max(settings.baseline_iterations // ROUNDS, 10), warmup=warmup)
+        regimes["raw"].add(before, switches(echo_pids), raw.calls + warmup)
+        raws.append(raw)
         iterations = max(settings.quadlet_iterations // ROUNDS, 10)
+        if frames is not None:
+            settle()
+            before = switches([frames.pid])
+            samples, failures = frames.round(iterations, warmup=warmup)
+            regimes["floor"].add(before, switches([frames.pid]), iterations + warmup + failures)
+            floor += samples
         settle()
         before = switches(target.peer_pids())
         run = measure_quadlets(target, iterations, warmup=warmup, progress=quiet)
@@ -162,14 +183,14 @@ def _interleaved(
         regimes["quadlet"].add(before, switches(target.peer_pids()), calls)
         runs.append(run)
         progress.update(number + 1)
-    floor = baseline.merged(floors)
-    progress.finish(f"raw median {summarize(floor.small).p50_us:.1f} us")
+    merged = baseline.merged(raws)
+    progress.finish(f"raw median {summarize(merged.small).p50_us:.1f} us")
     quadlets = QuadletRun(
         [s for run in runs for s in run.read],
         [s for run in runs for s in run.write],
         sum(run.failures for run in runs),
     )
-    return floor, quadlets
+    return merged, quadlets, floor if frames is not None else None
 
 
 def _the_rest(

@@ -100,13 +100,21 @@ def check_regime(result: dict[str, Any]) -> None:
     regime = result["regime"]
     # 10 rounds of 100 + 25 raw round trips; the first round warms up with 100, the rest 10.
     assert regime["raw"]["calls"] >= 10 * 125 + 100 + 9 * SWITCH_WARMUP
+    assert regime["floor"]["calls"] >= 1000 + 100 + 9 * SWITCH_WARMUP
     assert regime["quadlet"]["calls"] >= 2 * (1000 + 100 + 9 * SWITCH_WARMUP)
     assert regime["block_raw"]["calls"] >= 20 * (125 + SWITCH_WARMUP)
     assert regime["block"]["calls"] >= 2 * (20 * 10 + 100 + 19 * SWITCH_WARMUP)
-    for half in ("raw", "quadlet", "block_raw", "block"):
+    for half in ("raw", "floor", "quadlet", "block_raw", "block"):
         for key in ("wakeups_per_call", "peer_wakeups_per_call", "preemptions_per_call"):
             assert 0 <= regime[half][key] < 5, (half, key, regime[half])
-    assert set(regime["same_regime"]) == {"quadlet", "block"}
+    assert set(regime["same_regime"]) == {"quadlet", "frame_floor", "block"}
+    # The read's bare frames, timed in the quadlet rounds: as many as reads.
+    floor = result["frame_floor"]
+    assert floor["frames"] == 3 and floor["count"] == 1000 and floor["p50_us"] > 0
+    unit = result["baseline"]["round_trip"]["p50_us"]
+    assert floor["x_p50"] == pytest.approx(floor["p50_us"] / unit, abs=0.01, rel=0.01)
+    read = result["quadlet"]["read"]["p50_us"]
+    assert floor["read_above_p50_us"] == pytest.approx(read - floor["p50_us"], abs=0.02)
     settle_ms = result["machine"]["round_switch_settle_ms"]
     assert settle_ms == pytest.approx(settle_time(default_idle()) * 1000)
     assert "regime: idle" in render(result)
@@ -159,6 +167,7 @@ def test_a_qla_board_behind_eth1394(capsys: pytest.CaptureFixture[str]) -> None:
     assert (result["target"]["board_id"], result["target"]["node"]) == (3, 1)
     assert result["target"]["writes_acknowledged"] is False
     assert "scale" not in result
+    assert "frame_floor" not in result  # another transport: the bus's floor says nothing of it
     check_quadlets(result, 300)
     assert "not answered" in render(result)
     assert server.stats.refused == 0

@@ -71,6 +71,7 @@ def _with_regimes(raw_wakeups: int) -> BenchResult:
     run = synthetic_run()
     run.regimes = {
         "raw": Regime(1000, raw_wakeups, 0, 0),
+        "floor": Regime(1000, 0, 0, 0),
         "quadlet": Regime(2000, 0, 0, 20),
         "block_raw": Regime(500, 0, 0, None),
         "block": Regime(800, 8, 400, None),
@@ -83,10 +84,25 @@ def test_the_regime_of_each_half_and_a_warning_when_a_ratio_mixes_them() -> None
     regime = numbers["regime"]
     assert regime["raw"]["calls"] == 1000 and regime["quadlet"]["peer_wakeups_per_call"] == 0.01
     assert regime["block"]["preemptions_per_call"] == 0.5
-    assert regime["same_regime"] == {"quadlet": True, "block": False}
+    assert regime["same_regime"] == {"quadlet": True, "frame_floor": True, "block": False}
     text = render(numbers)
     assert "block raw 0.00/?/0.00, blocks 0.01/?/0.50" in text
     assert "warning: the block figures divide halves that ran in different regimes" in text
     mixed = render(digest(_with_regimes(raw_wakeups=900)))
-    assert "warning: the quadlet and block figures" in mixed
+    assert "warning: the quadlet and frame floor and block figures" in mixed
     assert "regime:" not in render(digest(synthetic_run()))  # a run that counted nothing
+
+
+def test_the_frame_floor_against_raw_and_under_the_read() -> None:
+    run = synthetic_run()
+    run.frame_floor = [24.0] * 99 + [500.0]  # a stall moves the mean, not the median
+    numbers = digest(run)
+    floor = numbers["frame_floor"]
+    unit = numbers["baseline"]["round_trip"]["p50_us"]
+    assert floor["frames"] == 3 and floor["p50_us"] == 24.0 and floor["count"] == 100
+    assert floor["x_p50"] == pytest.approx(24.0 / unit, abs=0.01)
+    read = numbers["quadlet"]["read"]["p50_us"]
+    assert floor["read_above_p50_us"] == pytest.approx(read - 24.0, abs=0.01)
+    text = render(numbers)
+    assert f"floor): p50 24.0 us, x{24.0 / unit:.2f} raw; the read's p50 is" in text
+    assert "frame_floor" not in digest(synthetic_run())  # a target of another transport
