@@ -433,7 +433,7 @@ def run(quick: bool, rounds: int, pin_cpus: bool = False) -> dict[str, Any]:
                 "quadlet_write": lambda: port.write_quadlet(0, 0, 1),
                 "block_read_4": lambda: port.read_block(0, 0, 4),
             }
-            peers = {name: [node_pid] for name in actions}
+            peers = {kind: [node_pid] for kind in actions}
             peers.update(raw_udp=[echo.echo.pid], subaction_floor=[floor_pid])
             interleaved(actions, 500, 5)  # warm-up
             timings, regimes = interleaved(actions, samples, rounds, peers)

@@ -129,9 +129,9 @@ def measure_blocks_interleaved(
     for number in range(passes):
         settle()
         before = switches(raw_peers)
-        floor = raw.round(raw_count, warmup=SWITCH_WARMUP)
-        raw_regime.add(before, switches(raw_peers), floor.calls + SWITCH_WARMUP)
-        floors.append(floor)
+        raw_round = raw.round(raw_count, warmup=SWITCH_WARMUP)
+        raw_regime.add(before, switches(raw_peers), raw_round.calls + SWITCH_WARMUP)
+        floors.append(raw_round)
         settle()
         pass_warmup = warmup if number == 0 else SWITCH_WARMUP
         before = switches(target.peer_pids())

@@ -105,9 +105,11 @@ def _measure(
     peers = None if split is None else split[1]
     machine = machine_info(split is not None)
     echo = baseline.Echo(peers)
-    # A read's bare frames are the floor of the virtual bus; Eth1394 is another transport.
-    frames = FrameFloor(peers) if spec.kind != "udp" else None
+    frames: FrameFloor | None = None
     try:
+        # A read's bare frames are the floor of the virtual bus; Eth1394 is another transport.
+        if spec.kind != "udp" and settings.runs("quadlet"):
+            frames = FrameFloor(peers)
         progress.note("starting the target ...")
         with open_target(
             spec, board=board, board_id=board_id, peer_cpus=peers, timeout=timeout
@@ -202,7 +204,8 @@ def _the_rest(
     progress: Progress,
 ) -> None:
     if settings.runs("block"):
-        block_regimes = result.regimes["block_raw"], result.regimes["block"] = Regime(), Regime()
+        block_regimes = (Regime(), Regime())
+        result.regimes["block_raw"], result.regimes["block"] = block_regimes
         result.blocks, result.block_baseline = measure_blocks_interleaved(
             target,
             echo,
