@@ -5,6 +5,7 @@
     python bench/bus.py --json     # one JSON object instead of the report
     python bench/bus.py --mac      # what the keyed MAC costs per frame and per read
     python bench/bus.py --syscalls # CPU per sendto / recv: the floor of a read's CPU
+    python bench/bus.py --mechanisms   # transports compared, shared memory included
     python bench/bus.py --idle block   # every process of the run blocks in recv
     python bench/bus.py --pin      # this process on one CPU, its peers on the others
 
@@ -29,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import mmap
 import os
 import signal
 import socket
@@ -331,8 +333,59 @@ def hub_relay(count: int) -> dict[str, float]:
             os.waitpid(pid, 0)
 
 
+def shared_memory_ping_pong(count: int, frames: int = 2) -> dict[str, float]:
+    """Exchanges of ``frames`` 40-byte frames through one shared page, both ends polling.
+
+    What a medium without a system call per frame would cost: each end spins on
+    the other's sequence number, as a polling member spins on its socket. Two
+    frames are a raw round trip; three a quadlet read's (request, ack with the
+    response, the requester's ack), the third written but not waited for, as a
+    node does not wake for acks. Not a transport of fw1394: a measure of the next
+    step's floor.
+    """
+    page = mmap.mmap(-1, mmap.PAGESIZE)  # anonymous and shared: the child sees it
+    payload = bytes(40)
+
+    def answer() -> None:
+        seen = bytes(8)
+        while True:
+            asked = page[0:8]
+            if asked != seen:
+                seen = asked
+                page[72:112] = page[8:48]
+                page[64:72] = asked
+
+    pid = _forked(answer)
+    sent = 0
+
+    def once() -> None:
+        nonlocal sent
+        sent += 1
+        mark = sent.to_bytes(8, "little")
+        page[8:48] = payload
+        page[0:8] = mark
+        while page[64:72] != mark:
+            pass
+        if frames == 3:
+            page[128:168] = payload  # the requester's ack: nobody waits for it
+            page[120:128] = mark
+
+    try:
+        timed(once, 2000)
+        return percentiles(timed(once, count))
+    finally:
+        os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+        page.close()
+
+
 def mechanisms(count: int) -> dict[str, Any]:
-    results: dict[str, Any] = {"unicast": raw_ping_pong(count), "hub_relay": hub_relay(count)}
+    results: dict[str, Any] = {
+        "unicast": raw_ping_pong(count),
+        "hub_relay": hub_relay(count),
+        "shared_memory_2_frames": shared_memory_ping_pong(count, 2),
+        "shared_memory_3_frames": shared_memory_ping_pong(count, 3),
+    }
     for idle in (0, 6, 30, 61):
         results[f"multicast_{idle}_idle"] = {
             "unfiltered": multicast_ping_pong(idle, False, count),
@@ -691,7 +744,8 @@ def main() -> int:
     parser.add_argument(
         "--mechanisms",
         action="store_true",
-        help="compare transports (unicast, hub relay, multicast with and without filter)",
+        help="compare transports (unicast, hub relay, shared memory, multicast with and "
+        "without filter)",
     )
     parser.add_argument(
         "--syscalls",
