@@ -83,12 +83,9 @@ def _regime_lines(regime: dict[str, Any] | None, machine: dict[str, Any]) -> lis
     preemptions; and a warning for a ratio whose halves differ."""
     if not regime:
         return []
+    keys = ("wakeups_per_call", "peer_wakeups_per_call", "preemptions_per_call")
     shown = [
-        "{} {}/{}/{}".format(
-            label,
-            *(_per(regime[name][key]) for key in ("wakeups_per_call", "peer_wakeups_per_call")),
-            _per(regime[name]["preemptions_per_call"]),
-        )
+        f"{label} " + "/".join(_per(regime[name][key]) for key in keys)
         for name, label in _HALVES
         if name in regime
     ]
