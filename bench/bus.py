@@ -42,16 +42,17 @@ from contextlib import contextmanager
 from functools import partial
 from typing import Any
 
+from fw1394.experiments.frame_floor import FrameFloor
 from fw1394.experiments.regime import Regime, same_regime, settle, settle_time, switches
 from fw1394.experiments.timing import SWITCH_WARMUP, cpu_split, pin
-from fw1394.packets import AckCode, QuadletReadRequest, QuadletReadResponse
+from fw1394.packets import QuadletReadRequest
 from fw1394.packets.fast import encode_packet
 from fw1394.transport.bus_port import BusPort
 from fw1394.transport.config import BusConfig
 from fw1394.transport.idle import Waiter, default_idle, parse_idle
 from fw1394.transport.medium import MAX_FRAME, Medium
 from fw1394.transport.membership import Timing
-from fw1394.transport.wire import AckPayload, FrameHeader, FrameKind, ack_byte
+from fw1394.transport.wire import FrameHeader, FrameKind
 
 BLOCK = 2048  # 512 quadlets
 NODE_COUNTS = (1, 2, 4, 8, 16, 32, 62)
@@ -253,52 +254,16 @@ def multicast_ping_pong(idle: int, filtered: bool, count: int) -> dict[str, floa
 
 @contextmanager
 def subaction_floor() -> Iterator[tuple[Callable[[], None], int]]:
-    """A quadlet read's three frames on the bus, with no work done for them.
-
-    Request, ack with the response concatenated, and the requester's ack of that
-    response, byte for byte as a read sends them, between two filtered members of
-    a group: the least any quadlet read on this bus can cost with Python at both
-    ends. Whatever a real read takes beyond it is the codec, the engine and the
-    loops. Yields one exchange and the responder's pid.
-    """
-    config = BusConfig(f"floor{os.getpid()}")
-    tag = config.tag
-    # The very bytes a read exchanges, from the codec: only the work around them is left out.
-    read = QuadletReadRequest(destination_id=0xFFC2, tlabel=1, source_id=0xFFC1)
-    response = QuadletReadResponse(destination_id=0xFFC1, tlabel=1, source_id=0xFFC2)
-    ack_pending = AckPayload(ack_byte(AckCode.ack_pending), 1, 1, encode_packet(response))
-    ack_complete = AckPayload(ack_byte(AckCode.ack_complete), 1, 1)
-    request = FrameHeader(FrameKind.async_packet, tag, 101, 0, 1, 2).pack() + encode_packet(read)
-    answer = FrameHeader(FrameKind.ack, tag, 102, 0, 2, 1).pack() + ack_pending.pack()
-    ack = FrameHeader(FrameKind.ack, tag, 101, 0, 1, 2).pack() + ack_complete.pack()
-
-    def responder() -> None:
-        medium = Medium(config, idle=default_idle())
-        medium.filter_as_member(102, 2, True)  # a node's filter: acks never wake it
-        medium.set_poll_interval(medium.sock, 1.0)
-        while True:
-            if medium.receive() is not None:
-                medium.send(answer)
-
-    pid = _forked(responder)
-    # Both ends wait as bus members do, so that the floor pays the same wake-ups.
-    me = Medium(config, idle=default_idle())
-    me.filter_as_member(101, 1, False)
+    """A quadlet read's three frames on the bus, with no work done for them
+    (:mod:`fw1394.experiments.frame_floor`, as ``fw1394 bench`` times them): the
+    least any quadlet read on this bus can cost with Python at both ends. Yields
+    one exchange and the responder's pid."""
+    floor = FrameFloor()
     try:
-        time.sleep(0.3)
-        me.set_poll_interval(me.sock, 0.5)
-
-        def once() -> None:
-            me.send(request)
-            me.receive()
-            me.send(ack)
-
-        timed(once, 200)
-        yield once, pid
+        timed(floor.exchange, 200)
+        yield floor.exchange, floor.pid
     finally:
-        os.kill(pid, signal.SIGKILL)
-        os.waitpid(pid, 0)
-        me.close()
+        floor.close()
 
 
 def hub_relay(count: int) -> dict[str, float]:

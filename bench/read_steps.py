@@ -23,6 +23,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from fw1394.boards.registry import BOARDS
 from fw1394.experiments.private_bus import PrivateBus
 from fw1394.experiments.regime import settle
 from fw1394.experiments.timing import collector_paused, cpu_split, pin
@@ -161,7 +162,9 @@ def report(result: dict[str, Any]) -> None:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--board", default="memory", help="board kind of the node (default memory)")
+    parser.add_argument(
+        "--board", default="memory", choices=sorted(BOARDS), help="board kind of the node"
+    )
     parser.add_argument("--reads", type=int, default=3000, help="reads with and without clocks")
     parser.add_argument("--rounds", type=int, default=6, help="interleaved rounds (default 6)")
     parser.add_argument("--json", action="store_true", help="print one JSON object")

@@ -145,7 +145,7 @@ class Echo:
             self.sock.sendto(b"stop", self.peer) if hasattr(self, "peer") else None
         finally:
             self.sock.close()
-            _stop(self.echo)
+            stop_process(self.echo)
 
 
 def merged(rounds: list[Baseline]) -> Baseline:
@@ -173,7 +173,8 @@ def measure(
         echo.close()
 
 
-def _stop(process: subprocess.Popen[str]) -> None:
+def stop_process(process: subprocess.Popen[str]) -> None:
+    """Reap ``process`` once it ends, killing it after 2 s; close its output pipe."""
     try:
         process.wait(2.0)
     except subprocess.TimeoutExpired:

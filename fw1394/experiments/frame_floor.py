@@ -20,6 +20,7 @@ import subprocess
 import sys
 import time
 
+from fw1394.experiments.baseline import stop_process
 from fw1394.experiments.timing import TargetError, pin, time_calls
 from fw1394.packets import AckCode, QuadletReadRequest, QuadletReadResponse
 from fw1394.packets.fast import encode_packet
@@ -85,7 +86,8 @@ class FrameFloor:
     def pid(self) -> int:
         return self.responder.pid
 
-    def _exchange(self) -> None:
+    def exchange(self) -> None:
+        """The three frames, once; TargetError if no answer comes."""
         medium = self.medium
         medium.send(self.request)
         if medium.receive() is None:
@@ -94,19 +96,12 @@ class FrameFloor:
 
     def round(self, count: int, *, warmup: int = 0) -> tuple[list[float], int]:
         """``count`` timings of the three frames in µs, and how many attempts failed."""
-        return time_calls(self._exchange, count, warmup=warmup)
+        return time_calls(self.exchange, count, warmup=warmup)
 
     def close(self) -> None:
         try:
-            if self.responder.poll() is None:
-                self.responder.terminate()
-            try:
-                self.responder.wait(2.0)
-            except subprocess.TimeoutExpired:
-                self.responder.kill()
-                self.responder.wait()
-            if self.responder.stdout is not None:
-                self.responder.stdout.close()
+            self.responder.terminate()
+            stop_process(self.responder)
         finally:
             self.medium.close()
 
