@@ -86,7 +86,7 @@ class Node:
     def __init__(self, request: AsyncPacket, keyed: bool) -> None:
         key = new_key() if keyed else b""
         self.config = BusConfig(f"bench-turn{int(keyed)}", key=key)
-        with mock.patch.object(station_module, "Medium", RepeatingMedium):
+        with mock.patch.object(station_module, "open_medium", RepeatingMedium):
             self.station = Station(self.config, rank=1, drop_acks=True, timing=QUIET)
         medium = self.station.medium
         assert isinstance(medium, RepeatingMedium)

@@ -12,7 +12,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from fw1394.transport.config import BusConfig
-from fw1394.transport.medium import Medium
+from fw1394.transport.media import open_medium
 from fw1394.transport.seal import Sealer, Verifier, key_for
 from fw1394.transport.wire import (
     EVERY_MEMBER,
@@ -46,7 +46,7 @@ def watch(
     """
     key = key_for(config)
     verifier = None if key is None else Verifier(key)
-    medium = Medium(config, poll_interval=0.02)
+    medium = open_medium(config, poll_interval=0.02)
     try:
         medium.filter_as_tap()
         limit = time.monotonic() + timeout
@@ -78,7 +78,7 @@ def request_reset(config: BusConfig, generation: int) -> None:
     the request (and counts it).
     """
     key = key_for(config)
-    medium = Medium(config)
+    medium = open_medium(config)
     try:
         header = FrameHeader(
             FrameKind.reset_request,

@@ -25,7 +25,7 @@ from fw1394.transport import runtime
 from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig, FaultInjector
 from fw1394.transport.idle import IdleStrategy, default_idle
-from fw1394.transport.medium import Medium
+from fw1394.transport.media import open_medium
 from fw1394.transport.membership import Change, Membership, Role, Timing
 from fw1394.transport.procs import pid_namespace, process_alive
 from fw1394.transport.seal import DropCounts, Sealer, Verifier, key_for
@@ -114,7 +114,7 @@ class Station:
         self._member_id = self.info.member_id
         #: How this member waits for frames (``FW1394_IDLE`` unless given).
         self.idle = default_idle() if idle is None else idle
-        self.medium = Medium(config, poll_interval, self.idle)
+        self.medium = open_medium(config, poll_interval, self.idle)
         # A keyed bus: every datagram out is sealed (each copy on its own), every
         # one in verified; docs/virtual-bus.md, "Faults and threats".
         key = key_for(config)

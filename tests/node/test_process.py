@@ -55,7 +55,7 @@ def test_the_node_loop_answers_a_read_without_the_general_turn(
     monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
     monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))
-    monkeypatch.setattr(station_module, "Medium", ScriptedMedium)
+    monkeypatch.setattr(station_module, "open_medium", ScriptedMedium)
     config = BusConfig("node-loop", key=b"")
     node = Node(MemorySpace(64, contents=bytes(range(64))), NodeOptions(config, rank=1))
     medium = node.station.medium

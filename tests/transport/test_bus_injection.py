@@ -23,7 +23,7 @@ from fw1394.cli.main import main
 from fw1394.transport.bus_port import BusPort
 from fw1394.transport.config import BusConfig
 from fw1394.transport.launch import LaunchedBus
-from fw1394.transport.medium import Medium
+from fw1394.transport.media import open_medium
 from fw1394.transport.membership import Timing
 from fw1394.transport.runtime import bus_dir, read_members
 from fw1394.transport.seal import KEY_ENV, KEY_FILE_ENV, new_key
@@ -38,11 +38,11 @@ import secrets, sys
 from fw1394.packets import QuadletWriteRequest, encode
 from fw1394.packets.nodeid import node_id
 from fw1394.transport.config import BusConfig
-from fw1394.transport.medium import Medium
+from fw1394.transport.media import open_medium
 from fw1394.transport.wire import FrameHeader, FrameKind, parse_header
 
 config = BusConfig(sys.argv[1], key=b"")
-medium = Medium(config, poll_interval=0.02)
+medium = open_medium(config, poll_interval=0.02)
 medium.filter_as_tap()
 while True:  # the generation, from any beacon: headers are not secret
     raw = medium.receive()
@@ -121,7 +121,7 @@ def test_a_recorded_frame_sent_again_is_a_replay(tmp_path: Path) -> None:
     key = new_key()
     with LaunchedBus(config, 1, root=tmp_path, node_arguments=ARGS, key=key) as bus:
         bus.wait_members()
-        recorder = Medium(config)
+        recorder = open_medium(config)
         recorder.filter_as_tap()
         try:
             with BusPort(bus.member_config, timing=TIMING) as port:

@@ -124,7 +124,7 @@ def nodes(
     config = BusConfig("express-node", key=KEY if keyed else b"")
     with pytest.MonkeyPatch.context() as patch, tempfile.TemporaryDirectory() as runtime:
         patch.setenv("XDG_RUNTIME_DIR", runtime)
-        patch.setattr(station_module, "Medium", ScriptedMedium)
+        patch.setattr(station_module, "open_medium", ScriptedMedium)
         patch.setattr(secrets, "randbits", lambda bits: NODE_ID)
         patch.setattr(time, "monotonic", clock)
         patch.setattr(link_module, "_clock", clock)

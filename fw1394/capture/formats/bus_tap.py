@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 from fw1394.capture.formats.record import BusRecord, RecordType
 from fw1394.transport.config import BusConfig
-from fw1394.transport.medium import Medium
+from fw1394.transport.media import open_medium
 from fw1394.transport.seal import DropCounts, Verifier, key_for
 from fw1394.transport.wire import (
     BROADCAST_PHY,
@@ -73,7 +73,7 @@ class BusTap:
         self.ack_wait = ack_wait
         bus_key = key_for(self.config)
         self._verifier = None if bus_key is None else Verifier(bus_key)
-        self.medium = Medium(self.config, poll_interval=0.005)
+        self.medium = open_medium(self.config, poll_interval=0.005)
         self.medium.filter_as_tap()
         self._queue: deque[_Pending] = deque()
         self._waiting: dict[tuple[int, int, int], _Pending] = {}

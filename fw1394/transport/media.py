@@ -1,0 +1,74 @@
+"""Which medium carries a bus: shared memory on one host, UDP multicast across hosts.
+
+Both carry the same frames (:mod:`fw1394.packets.frame`) with the same
+semantics (``docs/virtual-bus.md``, "Media"). A bus on the loopback interface
+lives on one host and uses :class:`~fw1394.transport.shared_medium.SharedMedium`;
+a bus on a LAN interface spans hosts and uses the UDP medium
+(:class:`~fw1394.transport.medium.Medium`). ``FW1394_MEDIUM`` (``shm`` or
+``udp``) overrides the choice for every member started with it in its
+environment: every member of one bus must use the same medium.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+from collections.abc import Callable
+from typing import Protocol
+
+from fw1394.transport.config import BusConfig
+from fw1394.transport.idle import BLOCK, IdleStrategy
+from fw1394.transport.medium import Medium
+from fw1394.transport.shared_medium import SharedMedium
+
+ENVIRONMENT = "FW1394_MEDIUM"
+SHARED, UDP = "shm", "udp"
+NAMES = (SHARED, UDP)
+
+
+class BusMedium(Protocol):
+    """What a bus member needs of its medium."""
+
+    config: BusConfig
+    idle: IdleStrategy
+
+    @property
+    def sock(self) -> socket.socket: ...
+
+    def send(self, frame: bytes) -> None: ...
+
+    def receive(self) -> bytes | None: ...
+
+    def receive_queued(self) -> bytes | None: ...
+
+    def receive_stamped(self, wait: bool = True) -> tuple[bytes, int] | None: ...
+
+    def filter_as_member(self, member_id: int, phy_id: int | None, drop_acks: bool) -> None: ...
+
+    def filter_as_tap(self) -> None: ...
+
+    def sleep_until(self, deadline: Callable[[], float]) -> None: ...
+
+    def close(self) -> None: ...
+
+
+def medium_name(config: BusConfig) -> str:
+    """``shm`` or ``udp``: what ``FW1394_MEDIUM`` says, else by the bus's interface.
+
+    Raises ValueError for an unknown name in the environment.
+    """
+    chosen = os.environ.get(ENVIRONMENT, "").strip().lower()
+    if chosen:
+        if chosen not in NAMES:
+            raise ValueError(f"{ENVIRONMENT}={chosen!r}: expected {' or '.join(NAMES)}")
+        return chosen
+    return SHARED if config.interface.startswith("127.") else UDP
+
+
+def open_medium(
+    config: BusConfig, poll_interval: float = 0.005, idle: IdleStrategy = BLOCK
+) -> BusMedium:
+    """The medium of the bus ``config`` (:func:`medium_name`), open."""
+    if medium_name(config) == SHARED:
+        return SharedMedium(config, poll_interval, idle)
+    return Medium(config, poll_interval, idle)
