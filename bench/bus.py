@@ -38,7 +38,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from functools import partial
 from typing import Any
 
@@ -50,6 +50,7 @@ from fw1394.packets.fast import encode_packet
 from fw1394.transport.bus_port import BusPort
 from fw1394.transport.config import BusConfig
 from fw1394.transport.idle import Waiter, default_idle, parse_idle
+from fw1394.transport.media import ENVIRONMENT as MEDIUM_ENV
 from fw1394.transport.medium import MAX_FRAME, Medium
 from fw1394.transport.membership import Timing
 from fw1394.transport.wire import FrameHeader, FrameKind
@@ -418,7 +419,28 @@ def cpu_per_call(action: Callable[[], object], count: int, node_pid: int) -> dic
     return {"host": host, "node": node}
 
 
+MEDIA = ("shm", "udp")
+#: The figures each medium gets in the interleaved rounds.
+KINDS = ("quadlet_read", "quadlet_write", "block_read_4")
+
+
+@contextmanager
+def on_medium(medium: str) -> Iterator[None]:
+    """Members started or joined inside use ``medium`` (``FW1394_MEDIUM``)."""
+    before = os.environ.get(MEDIUM_ENV)
+    os.environ[MEDIUM_ENV] = medium
+    try:
+        yield
+    finally:
+        if before is None:
+            del os.environ[MEDIUM_ENV]
+        else:
+            os.environ[MEDIUM_ENV] = before
+
+
 def run(quick: bool, rounds: int, pin_cpus: bool = False) -> dict[str, Any]:
+    """Both media side by side: a bus of one node on each, timed in the same rounds
+    as the raw ping-pong and the frame floor."""
     samples = 2000 if quick else 10000
     # Pinned: every process started from here inherits the peers' CPUs; this one then
     # takes the first CPU alone, so the two ends of a round trip never share one.
@@ -432,36 +454,44 @@ def run(quick: bool, rounds: int, pin_cpus: bool = False) -> dict[str, Any]:
         "rounds": rounds,
         "round_switch_settle_ms": round(settle_time(default_idle()) * 1000, 3),
         "load_average_before": os.getloadavg()[0],
+        "media": {},
     }
-    name = f"bench{os.getpid()}"
-    nodes = Nodes(name)
+    nodes = {medium: Nodes(f"bench{os.getpid()}{medium}") for medium in MEDIA}
     echo = RawEcho()
     try:
-        nodes.grow(1)
-        with BusPort(BusConfig(name), timing=TIMING) as port, subaction_floor() as floor:
-            wait_for_nodes(port, 1)
-            node_pid = nodes.processes[0].pid
-            floor_once, floor_pid = floor
+        with ExitStack() as stack:
+            ports: dict[str, BusPort] = {}
+            for medium in MEDIA:
+                with on_medium(medium):
+                    nodes[medium].grow(1)
+                    ports[medium] = stack.enter_context(
+                        BusPort(BusConfig(nodes[medium].name), timing=TIMING)
+                    )
+            floor_once, floor_pid = stack.enter_context(subaction_floor())
+            for port in ports.values():
+                wait_for_nodes(port, 1)
+            node_pids = {medium: nodes[medium].processes[0].pid for medium in MEDIA}
             if split is not None:
                 pin([0], split[0])
             actions: dict[str, Callable[[], object]] = {
                 "raw_udp": echo.once,
                 "subaction_floor": floor_once,
-                "quadlet_read": lambda: port.read_quadlet(0, 0),
-                "quadlet_write": lambda: port.write_quadlet(0, 0, 1),
-                "block_read_4": lambda: port.read_block(0, 0, 4),
             }
-            peers = {kind: [node_pid] for kind in actions}
-            peers.update(raw_udp=[echo.echo.pid], subaction_floor=[floor_pid])
+            peers = {"raw_udp": [echo.echo.pid], "subaction_floor": [floor_pid]}
+            for medium, port in ports.items():
+                actions[f"{medium}:quadlet_read"] = partial(port.read_quadlet, 0, 0)
+                actions[f"{medium}:quadlet_write"] = partial(port.write_quadlet, 0, 0, 1)
+                actions[f"{medium}:block_read_4"] = partial(port.read_block, 0, 0, 4)
+                for kind in KINDS:
+                    peers[f"{medium}:{kind}"] = [node_pids[medium]]
             interleaved(actions, 500, 5)  # warm-up
             timings, regimes = interleaved(actions, samples, rounds, peers)
-            for key, values in timings.items():
-                results[key] = percentiles(values)
+            for key in ("raw_udp", "subaction_floor"):
+                results[key] = percentiles(timings[key])
             raw = results["raw_udp"]["p50_us"]
-            results["ratios_p50"] = {
-                key: round(results[key]["p50_us"] / raw, 2)
-                for key in ("subaction_floor", "quadlet_read", "quadlet_write", "block_read_4")
-            }
+            results["subaction_floor"]["ratio_p50"] = round(
+                results["subaction_floor"]["p50_us"] / raw, 2
+            )
             results["regime"] = {key: regime.as_dict() for key, regime in regimes.items()}
             results["same_regime_as_raw"] = {
                 key: same_regime(regimes["raw_udp"], regime)
@@ -470,32 +500,48 @@ def run(quick: bool, rounds: int, pin_cpus: bool = False) -> dict[str, Any]:
             }
             # The floor of the CPU figures: a raw round trip's sendto and recv.
             results["raw_udp"]["cpu_us"] = cpu_per_call(echo.once, samples, echo.echo.pid)
-            results["quadlet_read"]["cpu_us"] = cpu_per_call(
-                lambda: port.read_quadlet(0, 0), samples, node_pid
-            )
-            results["block_read_512_cpu_us"] = cpu_per_call(
-                lambda: port.read_block(0, 0, BLOCK), samples // 4, node_pid
-            )
             blocks = 500 if quick else 3000
-            results["block_read_mbit_s"] = {
-                "sequential": block_throughput(port, blocks, 1),
-                "pipelined_4": block_throughput(port, blocks, 4),
-                "pipelined_16": block_throughput(port, blocks, 16),
-            }
-            scaling = {}
+            for medium, port in ports.items():
+                figures: dict[str, Any] = {}
+                for kind in KINDS:
+                    figures[kind] = percentiles(timings[f"{medium}:{kind}"])
+                figures["ratios_p50"] = {
+                    kind: round(figures[kind]["p50_us"] / raw, 2) for kind in KINDS
+                }
+                figures["quadlet_read"]["cpu_us"] = cpu_per_call(
+                    partial(port.read_quadlet, 0, 0), samples, node_pids[medium]
+                )
+                figures["block_read_512_cpu_us"] = cpu_per_call(
+                    partial(port.read_block, 0, 0, BLOCK), samples // 4, node_pids[medium]
+                )
+                figures["block_read_mbit_s"] = {
+                    "sequential": block_throughput(port, blocks, 1),
+                    "pipelined_4": block_throughput(port, blocks, 4),
+                    "pipelined_16": block_throughput(port, blocks, 16),
+                }
+                results["media"][medium] = figures
+            shm = results["media"]["shm"]["quadlet_read"]["p50_us"]
+            results["shm_vs_udp_read_p50"] = round(
+                shm / results["media"]["udp"]["quadlet_read"]["p50_us"], 2
+            )
+            # Scale on the default medium only: 62 more node processes per medium
+            # would take longer than the rest of the run.
+            port, scaling = ports["shm"], {}
             for count in QUICK_COUNTS if quick else NODE_COUNTS:
-                nodes.grow(count)
+                with on_medium("shm"):
+                    nodes["shm"].grow(count)
                 if split is not None:
-                    pin([process.pid for process in nodes.processes], split[1])
+                    pin([process.pid for process in nodes["shm"].processes], split[1])
                 wait_for_nodes(port, count)
                 timed(lambda: port.read_quadlet(0, 0), 200)
                 reads = timed(lambda: port.read_quadlet(0, 0), samples // 4)
                 scaling[str(count + 1)] = percentiles(reads)
                 scaling[str(count + 1)]["generation"] = port.generation
-            results["members_vs_read"] = scaling
+            results["media"]["shm"]["members_vs_read"] = scaling
     finally:
         echo.close()
-        nodes.stop()
+        for group in nodes.values():
+            group.stop()
     results["load_average_after"] = os.getloadavg()[0]
     return results
 
@@ -617,28 +663,29 @@ def syscall_costs(rounds: int, count: int = 1000) -> dict[str, Any]:
 
 def report(results: dict[str, Any]) -> None:
     raw = results["raw_udp"]["p50_us"]
-    read = results["quadlet_read"]["p50_us"]
     print(
         f"cpus: {results['cpus']}, idle strategy: {results['idle']}, load average "
         f"{results['load_average_before']} before, {results['load_average_after']} after; "
-        f"raw and bus timed in {results['rounds']} interleaved rounds"
+        f"raw and both media timed in {results['rounds']} interleaved rounds"
         + ("; this process on one CPU, its peers on the others" if results["pinned"] else "")
     )
     print(f"raw Python UDP ping-pong    p50 {raw:7.1f} us  p99 {results['raw_udp']['p99_us']} us")
-    goals = {"quadlet_read": 1.5, "quadlet_write": 1.3, "block_read_4": 2.0}
-    for kind, goal in goals.items():
-        row = results[kind]
-        ratio = results["ratios_p50"][kind]
-        print(
-            f"{kind:<27} p50 {row['p50_us']:7.1f} us  p99 {row['p99_us']} us  "
-            f"x{ratio:.2f} raw (target <= {goal})"
-        )
-    print("  (thesis hardware: quadlet read 34.5 us, write 30.2 us, block read base 33.2 us)")
-    floor = results["subaction_floor"]["p50_us"]
+    floor = results["subaction_floor"]
     print(
-        f"  the read's three frames with no work done (the floor): p50 {floor:.1f} us, "
-        f"{floor / raw:.2f}x raw; the read costs {read - floor:.1f} us more"
+        f"  the read's three frames on UDP with no work done (the floor): p50 "
+        f"{floor['p50_us']:.1f} us, {floor['ratio_p50']:.2f}x raw"
     )
+    goals = {"quadlet_read": 1.0, "quadlet_write": 0.8, "block_read_4": 1.2}
+    print(f"{'':27} {'shared memory':>30}   {'UDP multicast':>30}   goal")
+    for kind, goal in goals.items():
+        cells = []
+        for medium in MEDIA:
+            row = results["media"][medium][kind]
+            ratio = results["media"][medium]["ratios_p50"][kind]
+            cells.append(f"p50 {row['p50_us']:6.1f} p99 {row['p99_us']:6.0f} x{ratio:.2f} raw")
+        print(f"{kind:<27} {cells[0]:>30}   {cells[1]:>30}   <= {goal}x raw")
+    print(f"  shared memory / UDP, quadlet read p50: x{results['shm_vs_udp_read_p50']}")
+    print("  (thesis hardware: quadlet read 34.5 us, write 30.2 us, block read base 33.2 us)")
     regime = results["regime"]
     print(
         f"  regime, per call (wake-ups here / the peer's wake-ups / preemptions here), "
@@ -655,35 +702,40 @@ def report(results: dict[str, Any]) -> None:
             f"  warning: {', '.join(differ)} ran in another regime than the raw ping-pong "
             "(slept or shared a CPU where it polled on its own): those ratios compare regimes"
         )
-    cpu = results["quadlet_read"].get("cpu_us")
-    if cpu:
-        print(
-            f"  CPU per read (user + kernel): host {cpu['host']} us, node {cpu['node']} us "
-            "(target <= 10 and <= 8)"
-        )
     cpu = results["raw_udp"].get("cpu_us")
     if cpu:
         print(
             f"  CPU per raw round trip (the floor): this side {cpu['host']} us, "
             f"echo {cpu['node']} us"
         )
-    cpu = results.get("block_read_512_cpu_us")
-    if cpu:
-        print(f"  CPU per 512-quadlet block read: host {cpu['host']} us, node {cpu['node']} us")
-    blocks = results["block_read_mbit_s"]
-    print(
-        f"512-quadlet block reads: {blocks['sequential']} Mbit/s sequential, "
-        f"{blocks['pipelined_4']} four deep, {blocks['pipelined_16']} sixteen deep "
-        "(target >= 400; thesis: 360)"
-    )
-    print("quadlet read vs members (nodes + host):")
-    scaling = results["members_vs_read"]
+    for medium in MEDIA:
+        figures = results["media"][medium]
+        cpu = figures["quadlet_read"].get("cpu_us")
+        if cpu:
+            print(
+                f"  {medium}: CPU per read (user + kernel) host {cpu['host']} us, node "
+                f"{cpu['node']} us (goal <= 10 and <= 8)"
+            )
+        cpu = figures.get("block_read_512_cpu_us")
+        if cpu:
+            print(
+                f"  {medium}: CPU per 512-quadlet block read host {cpu['host']} us, "
+                f"node {cpu['node']} us"
+            )
+        blocks = figures["block_read_mbit_s"]
+        print(
+            f"  {medium}: 512-quadlet block reads {blocks['sequential']} Mbit/s sequential, "
+            f"{blocks['pipelined_4']} four deep, {blocks['pipelined_16']} sixteen deep "
+            "(goal >= 1000 four deep; thesis: 360)"
+        )
+    print("quadlet read vs members (nodes + host), shared memory:")
+    scaling = results["media"]["shm"]["members_vs_read"]
     first = next(iter(scaling.values()))["p50_us"]
     for members, row in scaling.items():
         ratio = row["p50_us"] / first
         p50, p99 = row["p50_us"], row["p99_us"]
         print(f"  {members:>3}  p50 {p50:7.1f} us  p99 {p99:8.1f} us  x{ratio:.2f}")
-    print("  (target: 63 members within x2.00 of the smallest bus)")
+    print("  (goal: 63 members within x1.3 of the smallest bus)")
 
 
 def main() -> int:
