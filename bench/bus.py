@@ -29,6 +29,7 @@ Targets from the issue are printed beside the results; they are not asserted.
 from __future__ import annotations
 
 import argparse
+import fcntl
 import json
 import mmap
 import os
@@ -36,6 +37,7 @@ import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
@@ -53,6 +55,7 @@ from fw1394.transport.idle import Waiter, default_idle, parse_idle
 from fw1394.transport.media import ENVIRONMENT as MEDIUM_ENV
 from fw1394.transport.medium import MAX_FRAME, Medium
 from fw1394.transport.membership import Timing
+from fw1394.transport.shared_medium import SharedMedium
 from fw1394.transport.wire import FrameHeader, FrameKind
 
 BLOCK = 2048  # 512 quadlets
@@ -345,12 +348,64 @@ def shared_memory_ping_pong(count: int, frames: int = 2) -> dict[str, float]:
         page.close()
 
 
+def shared_medium_ping_pong(count: int, idle: str) -> dict[str, float]:
+    """Round trips of a 40-byte frame between two members of a bus on the shared-memory
+    medium (:mod:`fw1394.transport.shared_medium`), both waiting by ``idle``."""
+    config = BusConfig(f"mechshm{os.getpid()}", key=b"")
+    strategy = parse_idle(idle)
+    frame_to = {
+        phy: FrameHeader(FrameKind.async_packet, config.tag, 103 - phy, 0, 3 - phy, phy).pack()
+        + bytes(16)
+        for phy in (1, 2)
+    }
+
+    def echo() -> None:
+        medium = SharedMedium(config, 0.5, strategy)
+        medium.filter_as_member(102, 2, False)
+        while True:
+            if medium.receive() is not None:
+                medium.send(frame_to[1])
+
+    me = SharedMedium(config, 0.5, strategy)
+    me.filter_as_member(101, 1, False)
+    pid = _forked(echo)
+    try:
+        time.sleep(0.3)
+
+        def once() -> None:
+            me.send(frame_to[2])
+            while me.receive() is None:
+                pass
+
+        timed(once, 200)
+        return percentiles(timed(once, count))
+    finally:
+        os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+        me.close()
+
+
+def lock_pair_us(count: int = 20000) -> float:
+    """An uncontended ``flock``/``funlock`` pair: what every frame written costs to order."""
+    with tempfile.TemporaryFile() as file:
+        fd, lock, unlock = file.fileno(), fcntl.LOCK_EX, fcntl.LOCK_UN
+        start = time.perf_counter()
+        for _ in range(count):
+            fcntl.flock(fd, lock)
+            fcntl.flock(fd, unlock)
+        return round((time.perf_counter() - start) / count * 1e6, 3)
+
+
 def mechanisms(count: int) -> dict[str, Any]:
     results: dict[str, Any] = {
         "unicast": raw_ping_pong(count),
         "hub_relay": hub_relay(count),
         "shared_memory_2_frames": shared_memory_ping_pong(count, 2),
         "shared_memory_3_frames": shared_memory_ping_pong(count, 3),
+        "shared_medium_spin": shared_medium_ping_pong(count, "spin"),
+        "shared_medium_block": shared_medium_ping_pong(count, "block"),
+        "shared_medium_adaptive": shared_medium_ping_pong(count, "adaptive"),
+        "flock_pair_us": lock_pair_us(),
     }
     for idle in (0, 6, 30, 61):
         results[f"multicast_{idle}_idle"] = {

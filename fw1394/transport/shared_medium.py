@@ -1,15 +1,19 @@
 """The shared-memory medium: every frame of the bus in one ring, in one file.
 
 Members on one host reach each other without the kernel's network stack: the
-bus is a file in its runtime directory (mode 0600, the key file's trust),
-mapped by every member. A writer appends each frame to the ring under an
-exclusive ``flock`` of the file; every reader (member or tap) keeps its own
-cursor and reads the records in ring order, so every member and every tap sees
-one bus order, as every PHY of a cable repeats the same packets in the same
-order. Address recognition is the reader's: a member takes only frames for its
-physical ID, broadcast (63) or every member (0xFF), never its own, and a node
-never the acks of its responses (:mod:`fw1394.transport.bpf` filters the same
-way in the kernel for the UDP medium).
+bus is a file (mode 0600, the key file's trust), mapped by every member. A
+writer appends each frame to the ring under an exclusive ``flock`` of the
+file; every reader (member or tap) keeps its own cursor and reads the records
+in ring order, so every member and every tap sees one bus order, as every PHY
+of a cable repeats the same packets in the same order. Address recognition is
+the reader's: a member takes only frames for its physical ID, broadcast (63)
+or every member (0xFF), never its own, and a node never the acks of its
+responses (:mod:`fw1394.transport.bpf` filters the same way in the kernel for
+the UDP medium).
+
+**Where.** ``/dev/shm/fw1394-UID/NAME/ring.NETNS`` (:func:`segment_path`),
+the file and its directories this user's alone (0600 and 0700): whoever can
+open it is a member, which is the bus key file's trust.
 
 **Records.** The ring holds records at increasing byte *positions*; a record
 lives at ``position mod RING_SIZE``, 8-byte aligned: a 24-byte header
@@ -61,7 +65,9 @@ import mmap
 import os
 import secrets
 import socket
+import stat
 import struct
+import tempfile
 import time
 import zlib
 from collections.abc import Callable
@@ -71,7 +77,6 @@ from construct import Bytes, Int32ub, Int64ub, Struct
 
 from fw1394.packets.bitfields import struct_format
 from fw1394.packets.nodeid import BROADCAST_PHY
-from fw1394.transport import runtime
 from fw1394.transport.config import BusConfig
 from fw1394.transport.idle import (
     BLOCK,
@@ -143,9 +148,33 @@ def _network_namespace() -> int:
         return 0
 
 
+def segment_directory() -> Path:
+    """This user's directory of bus rings: in ``/dev/shm`` (memory, never written
+    back to a disk) where there is one.
+
+    Not under the runtime root (``XDG_RUNTIME_DIR``): members that disagree about
+    that still meet on one bus, as they do on UDP, where a bus is its name.
+    """
+    base = Path("/dev/shm")
+    if not base.is_dir():
+        base = Path(tempfile.gettempdir())
+    return base / f"fw1394-{os.getuid()}"
+
+
 def segment_path(config: BusConfig) -> Path:
     """Where the bus ``config.name`` of this network namespace keeps its ring."""
-    return runtime.bus_dir(config.name) / f"ring.{_network_namespace()}"
+    return segment_directory() / config.name / f"ring.{_network_namespace()}"
+
+
+def _private_directory(path: Path) -> None:
+    # Made 0700 if missing; refused unless it is this user's own, not a link, and
+    # closed to others: another user could have made it first in a shared /dev/shm.
+    path.mkdir(mode=0o700, parents=True, exist_ok=True)
+    status = path.lstat()
+    if not stat.S_ISDIR(status.st_mode) or status.st_uid != os.getuid():
+        raise PermissionError(f"{path} is not a directory of this user's")
+    if stat.S_IMODE(status.st_mode) & 0o077:
+        raise PermissionError(f"{path} is open to other users (mode {status.st_mode:o})")
 
 
 def _align(size: int) -> int:
@@ -202,7 +231,8 @@ class SharedMedium:
 
     # -- the segment ------------------------------------------------------------------
     def _open_segment(self) -> int:
-        runtime.prepare(self.config.name)
+        _private_directory(self.path.parent.parent)
+        _private_directory(self.path.parent)
         flags = os.O_RDWR | os.O_CREAT | os.O_CLOEXEC | os.O_NOFOLLOW
         fd = os.open(self.path, flags, 0o600)
         try:

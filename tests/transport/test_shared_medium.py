@@ -77,6 +77,8 @@ def test_the_segment_is_the_owners_alone() -> None:
         mode = os.stat(segment_path(config)).st_mode
         assert stat.S_IMODE(mode) == 0o600
         assert segment_path(config).parent.name == config.name
+        for directory in (segment_path(config).parent, segment_path(config).parent.parent):
+            assert stat.S_IMODE(os.stat(directory).st_mode) == 0o700
     finally:
         medium.close()
 
