@@ -493,7 +493,7 @@ def on_medium(medium: str) -> Iterator[None]:
             os.environ[MEDIUM_ENV] = before
 
 
-def run(quick: bool, rounds: int, pin_cpus: bool = False) -> dict[str, Any]:
+def run(quick: bool, rounds: int, pin_cpus: bool = False, scale: bool = True) -> dict[str, Any]:
     """Both media side by side: a bus of one node on each, timed in the same rounds
     as the raw ping-pong and the frame floor."""
     samples = 2000 if quick else 10000
@@ -582,7 +582,7 @@ def run(quick: bool, rounds: int, pin_cpus: bool = False) -> dict[str, Any]:
             # Scale on the default medium only: 62 more node processes per medium
             # would take longer than the rest of the run.
             port, scaling = ports["shm"], {}
-            for count in QUICK_COUNTS if quick else NODE_COUNTS:
+            for count in (QUICK_COUNTS if quick else NODE_COUNTS) if scale else (1,):
                 with on_medium("shm"):
                     nodes["shm"].grow(count)
                 if split is not None:
@@ -814,6 +814,11 @@ def main() -> int:
         help="this process on one CPU, the echo and the nodes on the others (steadier ratios)",
     )
     parser.add_argument(
+        "--no-scale",
+        action="store_true",
+        help="skip the bus sizes beyond one node (62 node processes take minutes to start)",
+    )
+    parser.add_argument(
         "--mechanisms",
         action="store_true",
         help="compare transports (unicast, hub relay, shared memory, multicast with and "
@@ -845,7 +850,7 @@ def main() -> int:
         except ValueError as error:
             parser.exit(2, f"bench/bus.py: {error}\n")
         os.environ["FW1394_IDLE"] = args.idle  # the nodes and the echo inherit it
-    results = run(args.quick, max(1, args.rounds), args.pin)
+    results = run(args.quick, max(1, args.rounds), args.pin, not args.no_scale)
     if args.json:
         print(json.dumps(results))
     else:

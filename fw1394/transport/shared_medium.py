@@ -70,12 +70,14 @@ import struct
 import tempfile
 import time
 import zlib
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
+import posix_ipc
 from construct import Bytes, Int32ub, Int64ub, Struct
 
 from fw1394.packets.bitfields import struct_format
+from fw1394.packets.frame import field_offsets
 from fw1394.packets.nodeid import BROADCAST_PHY
 from fw1394.transport.config import BusConfig
 from fw1394.transport.idle import (
@@ -99,11 +101,13 @@ from fw1394.transport.wire import (
 )
 
 #: The segment's first bytes: what it is and its layout's version.
-SEGMENT_MAGIC = b"fw1394 bus ring1"
+SEGMENT_MAGIC = b"fw1394 bus ring2"
 SEGMENT = Struct(
     "magic" / Bytes(16),
     "head" / Int64ub,  # the next record's position (a hint: see the module's text)
-    "incarnation" / Int64ub,  # random per segment: names its doorbells
+    "incarnation" / Int64ub,  # random per segment: names its doorbells and its lock
+    "owner" / Int32ub,  # pid of the writer holding the lock, 0 while nobody does
+    "recoveries" / Int32ub,  # locks taken back from writers that died holding them
 )
 RECORD = Struct(
     "position" / Int64ub,
@@ -113,6 +117,15 @@ RECORD = Struct(
 )
 _RECORD = struct.Struct(struct_format(RECORD))
 _HEAD = struct.Struct(">Q")
+_OWNER = struct.Struct(">I")
+_SEGMENT_AT = field_offsets(SEGMENT)
+_HEAD_AT, _OWNER_AT = _SEGMENT_AT["head"], _SEGMENT_AT["owner"]
+_RECOVERIES_AT = _SEGMENT_AT["recoveries"]
+#: How long a writer waits for the lock before it looks whether its holder died.
+LOCK_PATIENCE = 0.25
+#: Looks at a held lock without an owner before it counts as dead: its holder
+#: died between taking it and saying so, or is that slow (see ``_take_back``).
+OWNERLESS_LOOKS = 8
 RECORD_SIZE = _RECORD.size
 _CHECKED = RECORD_SIZE - 4  # the header bytes the CRC covers before the frame
 PAD = 0xFFFF_FFFF
@@ -177,6 +190,26 @@ def _private_directory(path: Path) -> None:
         raise PermissionError(f"{path} is open to other users (mode {status.st_mode:o})")
 
 
+@contextlib.contextmanager
+def _exclusive(fd: int) -> Iterator[None]:
+    """The segment file's ``flock``, for what is rare: creating, claiming, recovering."""
+    fcntl.flock(fd, fcntl.LOCK_EX)
+    try:
+        yield
+    finally:
+        fcntl.flock(fd, fcntl.LOCK_UN)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
 def _align(size: int) -> int:
     return (size + 7) & ~7
 
@@ -199,11 +232,14 @@ class SharedMedium:
         self.overruns = 0
         #: Times this reader's doorbell woke it.
         self.wakeups = 0
+        self._pid = os.getpid()
+        self._users = -1
         self._fd = fd = self._open_segment()
         self._bell: socket.socket | None = None
         try:
             self._mm = mmap.mmap(fd, SEGMENT_SIZE)
             self._incarnation = SEGMENT.parse(self._mm[: SEGMENT.sizeof()]).incarnation
+            self._sem = self._open_lock()
             self._ringer = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
             self._ringer.setblocking(False)
             self._slot, self._bell = self._claim_slot()
@@ -211,6 +247,7 @@ class SharedMedium:
             if self._bell is not None:
                 self._bell.close()
             os.close(fd)
+            os.close(self._users)
             raise
         self._bell_timeout = -1.0
         self._cursor = self._head()
@@ -233,11 +270,29 @@ class SharedMedium:
     def _open_segment(self) -> int:
         _private_directory(self.path.parent.parent)
         _private_directory(self.path.parent)
+        users = self.path.with_name(self.path.name + ".users")
+        while True:
+            # Held shared while this member uses the ring (a file of its own: flock
+            # on the ring itself serialises the rare exclusive steps); the last to
+            # leave, the one that can make it exclusive, removes both files.
+            self._users = os.open(users, os.O_RDONLY | os.O_CREAT | os.O_CLOEXEC, 0o600)
+            try:
+                fcntl.flock(self._users, fcntl.LOCK_SH)
+                try:
+                    if os.stat(users).st_ino == os.fstat(self._users).st_ino:
+                        return self._open_file()
+                except FileNotFoundError:
+                    pass
+            except BaseException:
+                os.close(self._users)
+                raise
+            os.close(self._users)  # removed by the last member meanwhile: again
+
+    def _open_file(self) -> int:
         flags = os.O_RDWR | os.O_CREAT | os.O_CLOEXEC | os.O_NOFOLLOW
         fd = os.open(self.path, flags, 0o600)
         try:
-            fcntl.flock(fd, fcntl.LOCK_EX)
-            try:
+            with _exclusive(fd):
                 if os.fstat(fd).st_uid != os.getuid():
                     raise PermissionError(f"{self.path} belongs to another user")
                 os.fchmod(fd, 0o600)
@@ -246,15 +301,65 @@ class SharedMedium:
                     os.ftruncate(fd, 0)
                     os.ftruncate(fd, SEGMENT_SIZE)
                     header = SEGMENT.build(
-                        {"magic": SEGMENT_MAGIC, "head": 0, "incarnation": secrets.randbits(63)}
+                        {
+                            "magic": SEGMENT_MAGIC,
+                            "head": 0,
+                            "incarnation": secrets.randbits(63),
+                            "owner": 0,
+                            "recoveries": 0,
+                        }
                     )
                     os.pwrite(fd, header, 0)
-            finally:
-                fcntl.flock(fd, fcntl.LOCK_UN)
         except BaseException:
             os.close(fd)
             raise
         return fd
+
+    @property
+    def _lock_name(self) -> str:
+        return f"/fw1394-{os.getuid()}-{self._incarnation:x}"
+
+    def _open_lock(self) -> posix_ipc.Semaphore:
+        with _exclusive(self._fd):
+            return posix_ipc.Semaphore(self._lock_name, posix_ipc.O_CREAT, 0o600, 1)
+
+    def _lock(self) -> None:
+        """Take the writers' lock: a POSIX semaphore, no system call while it is free."""
+        sem = self._sem
+        looks = 0
+        while True:
+            recoveries = _OWNER.unpack_from(self._mm, _RECOVERIES_AT)[0]
+            try:
+                sem.acquire(LOCK_PATIENCE)
+                break
+            except posix_ipc.BusyError:
+                looks += 1
+                self._take_back(recoveries, looks)
+        _OWNER.pack_into(self._mm, _OWNER_AT, self._pid)
+
+    def _unlock(self) -> None:
+        _OWNER.pack_into(self._mm, _OWNER_AT, 0)
+        self._sem.release()
+
+    def _take_back(self, recoveries: int, looks: int) -> None:
+        # The lock stayed taken for a whole patience. Its holder is dead if the pid
+        # it wrote is gone, or if it wrote none for OWNERLESS_LOOKS patiences (it
+        # died between taking the lock and writing its pid). Taking it back happens
+        # under the segment's flock, once per death: a waiter that finds the count
+        # of recoveries moved since it started waiting leaves it to whoever did it.
+        with _exclusive(self._fd):
+            if _OWNER.unpack_from(self._mm, _RECOVERIES_AT)[0] != recoveries:
+                return
+            if self._sem.value != 0:
+                return
+            owner = _OWNER.unpack_from(self._mm, _OWNER_AT)[0]
+            if owner == 0 and looks < OWNERLESS_LOOKS:
+                return
+            if owner != 0 and _alive(owner):
+                return
+            _OWNER.pack_into(self._mm, _RECOVERIES_AT, (recoveries + 1) & 0xFFFF_FFFF)
+            _OWNER.pack_into(self._mm, _OWNER_AT, 0)
+            self._sem.release()
 
     def _bell_name(self, slot: int) -> bytes:
         return b"\0fw1394-bell/%x/%d" % (self._incarnation, slot)
@@ -262,8 +367,7 @@ class SharedMedium:
     def _claim_slot(self) -> tuple[int, socket.socket]:
         bell = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
         try:
-            fcntl.flock(self._fd, fcntl.LOCK_EX)
-            try:
+            with _exclusive(self._fd):
                 for slot in range(SLOTS):
                     try:
                         bell.bind(self._bell_name(slot))
@@ -272,8 +376,6 @@ class SharedMedium:
                     _SLOT.pack_into(self._mm, _SLOTS_AT + 8 * slot, 0, _NO_PHY, MODE_MEMBER, 0)
                     self._mm[_ARMED_AT + slot] = 0
                     return slot, bell
-            finally:
-                fcntl.flock(self._fd, fcntl.LOCK_UN)
         except BaseException:
             bell.close()
             raise
@@ -281,7 +383,7 @@ class SharedMedium:
         raise OSError(f"bus {self.config.name!r}: all {SLOTS} shared-memory slots are taken")
 
     def _head(self) -> int:
-        head: int = _HEAD.unpack_from(self._mm, 16)[0]
+        head: int = _HEAD.unpack_from(self._mm, _HEAD_AT)[0]
         return head
 
     @property
@@ -296,11 +398,11 @@ class SharedMedium:
 
     # -- address recognition ----------------------------------------------------------
     def _set_slot(self, member_id: int, phy: int, mode: int, drop_acks: bool) -> None:
-        fcntl.flock(self._fd, fcntl.LOCK_EX)
+        self._lock()
         try:
             _SLOT.pack_into(self._mm, _SLOTS_AT + 8 * self._slot, member_id, phy, mode, drop_acks)
         finally:
-            fcntl.flock(self._fd, fcntl.LOCK_UN)
+            self._unlock()
 
     def filter_as_member(self, member_id: int, phy_id: int | None, drop_acks: bool) -> None:
         """Hear what a node with ``phy_id`` (0-62) hears (None: bus-wide frames only)."""
@@ -336,8 +438,8 @@ class SharedMedium:
         length = len(frame)
         if length > MAX_FRAME:
             return  # no datagram carries it either: lost, as on the wire
-        mm, fd = self._mm, self._fd
-        fcntl.flock(fd, fcntl.LOCK_EX)
+        mm = self._mm
+        self._lock()
         try:
             head = self._writable_head()
             offset = head % RING_SIZE
@@ -349,11 +451,11 @@ class SharedMedium:
                 head += room
                 offset = 0
             self._write_record(head, offset, frame, length)
-            _HEAD.pack_into(mm, 16, head + need)
+            _HEAD.pack_into(mm, _HEAD_AT, head + need)
             armed = mm[_ARMED_AT:_SLOTS_AT]
             ring = () if armed == _NONE_ARMED else self._disarm_addressed(armed, frame)
         finally:
-            fcntl.flock(fd, fcntl.LOCK_UN)
+            self._unlock()
         for slot in ring:
             # Gone (its slot is free again), or rung already and not yet awake.
             with contextlib.suppress(OSError):
@@ -469,14 +571,14 @@ class SharedMedium:
     def _arm(self) -> bool:
         """Ask to be rung for the next frame for this reader; False: one may be there."""
         index = _ARMED_AT + self._slot
-        fcntl.flock(self._fd, fcntl.LOCK_EX)
+        self._lock()
         try:
             self._mm[index] = 1
             quiet = self._head() <= self._cursor
             if not quiet:
                 self._mm[index] = 0
         finally:
-            fcntl.flock(self._fd, fcntl.LOCK_UN)
+            self._unlock()
         return quiet
 
     def _sleep(self, seconds: float) -> bool:
@@ -616,4 +718,26 @@ class SharedMedium:
             if self._bell is not None:
                 self._bell.close()
             self._ringer.close()
+            self._sem.close()
+            self._leave_segment()
+
+    def _leave_segment(self) -> None:
+        users = self._users
+        try:
             os.close(self._fd)
+            fcntl.flock(users, fcntl.LOCK_UN)
+            try:
+                fcntl.flock(users, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                return  # others still use it
+            # The last one: a member opening the bus now finds the files gone once
+            # it holds them shared, and starts afresh.
+            for path in (self.path, self.path.with_name(self.path.name + ".users")):
+                with contextlib.suppress(FileNotFoundError):
+                    path.unlink()
+            with contextlib.suppress(posix_ipc.ExistentialError):
+                posix_ipc.unlink_semaphore(self._lock_name)
+            with contextlib.suppress(OSError):
+                self.path.parent.rmdir()  # unless another namespace's ring is there
+        finally:
+            os.close(users)

@@ -22,7 +22,6 @@ is 250,000, ``docs/virtual-bus.md`` records it).
 from __future__ import annotations
 
 import array
-import fcntl
 import multiprocessing
 import os
 import random
@@ -90,12 +89,12 @@ def dying_writer(name: str, whole: bool) -> None:
     medium = SharedMedium(config)
     sender = WHOLE if whole else HALF
     body = frame(config.tag, sender, 1, 0xFF)
-    fcntl.flock(medium._fd, fcntl.LOCK_EX)
+    medium._lock()
     head = medium.head
     offset = head % RING_SIZE
     if RING_SIZE - offset < shared_medium.RECORD_SIZE + len(body) + 8:
         head += RING_SIZE - offset  # a pad is the writer's business; keep the test simple
-        fcntl.flock(medium._fd, fcntl.LOCK_UN)
+        medium._unlock()
         os.kill(os.getpid(), signal.SIGKILL)
     if whole:
         medium._write_record(head, offset, body, len(body))
