@@ -90,7 +90,8 @@ def _regime_lines(regime: dict[str, Any] | None, machine: dict[str, Any]) -> lis
         if name in regime
     ]
     lines = [
-        f"regime: idle {machine.get('idle', '?')}; per call, bench wake-ups/peers' "
+        f"regime: idle {machine.get('idle', '?')}, medium {machine.get('medium', 'udp')}; "
+        "per call, bench wake-ups/peers' "
         "wake-ups/bench preemptions: " + ", ".join(shown)
     ]
     differ = [ratio.replace("_", " ") for ratio, same in regime["same_regime"].items() if not same]

@@ -27,7 +27,9 @@ from fw1394.experiments.regime import Regime, settle, settle_time, switches
 from fw1394.experiments.run_settings import Settings
 from fw1394.experiments.summary import summarize
 from fw1394.experiments.timing import SWITCH_WARMUP, cpu_split, pin
+from fw1394.transport.config import BusConfig
 from fw1394.transport.idle import default_idle
+from fw1394.transport.media import medium_name
 
 #: Rounds the baseline and the quadlet figures alternate in.
 ROUNDS = 10
@@ -65,6 +67,8 @@ def machine_info(pinned: bool) -> dict[str, object]:
         "load_average_before": [round(v, 2) for v in os.getloadavg()],
         # How every process of the run waited for frames (the echo included).
         "idle": str(default_idle()),
+        # What a loopback bus of the run carries its frames on (FW1394_MEDIUM).
+        "medium": medium_name(BusConfig()),
         # How long each round switch waits for the other half to stop polling.
         "round_switch_settle_ms": round(settle_time(default_idle()) * 1000, 3),
         "interleaved_rounds": ROUNDS,
