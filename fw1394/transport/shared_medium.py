@@ -74,7 +74,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import posix_ipc
-from construct import Bytes, Int32ub, Int64ub, Struct
+from construct import Bytes, Int32un, Int64un, Struct
 
 from fw1394.packets.bitfields import struct_format
 from fw1394.packets.frame import field_offsets
@@ -101,23 +101,27 @@ from fw1394.transport.wire import (
 )
 
 #: The segment's first bytes: what it is and its layout's version.
-SEGMENT_MAGIC = b"fw1394 bus ring2"
+SEGMENT_MAGIC = b"fw1394 bus ring3"
 SEGMENT = Struct(
     "magic" / Bytes(16),
-    "head" / Int64ub,  # the next record's position (a hint: see the module's text)
-    "incarnation" / Int64ub,  # random per segment: names its doorbells and its lock
-    "owner" / Int32ub,  # pid of the writer holding the lock, 0 while nobody does
-    "recoveries" / Int32ub,  # locks taken back from writers that died holding them
+    "head" / Int64un,  # the next record's position (a hint: see the module's text)
+    "incarnation" / Int64un,  # random per segment: names its doorbells and its lock
+    "owner" / Int32un,  # pid of the writer holding the lock, 0 while nobody does
+    "recoveries" / Int32un,  # locks taken back from writers that died holding them
 )
 RECORD = Struct(
-    "position" / Int64ub,
-    "stamp" / Int64ub,  # the writer's time.time_ns() when it took the lock
-    "length" / Int32ub,  # PAD: the rest of the lap is empty
-    "crc" / Int32ub,  # CRC-32 of the 20 bytes before it, then of the frame
+    "position" / Int64un,
+    "stamp" / Int64un,  # the writer's time.time_ns() when it took the lock
+    "length" / Int32un,  # PAD: the rest of the lap is empty
+    "crc" / Int32un,  # CRC-32 of the 20 bytes before it, then of the frame
 )
-_RECORD = struct.Struct(struct_format(RECORD))
-_HEAD = struct.Struct(">Q")
-_OWNER = struct.Struct(">I")
+# Native byte order, 8-byte aligned: struct then copies each field with one
+# machine load or store (a big-endian field is written a byte at a time, and a
+# reader could see half an old and half a new position). The segment never
+# leaves the host.
+_RECORD = struct.Struct("=" + struct_format(RECORD)[1:])
+_HEAD = struct.Struct("=Q")
+_OWNER = struct.Struct("=I")
 _SEGMENT_AT = field_offsets(SEGMENT)
 _HEAD_AT, _OWNER_AT = _SEGMENT_AT["head"], _SEGMENT_AT["owner"]
 _RECOVERIES_AT = _SEGMENT_AT["recoveries"]
@@ -144,6 +148,8 @@ SEGMENT_SIZE = RING_OFFSET + RING_SIZE
 #: The largest frame a record holds (a UDP datagram's payload, as on the UDP medium).
 MAX_FRAME = 65_507
 _NONE_ARMED = bytes(SLOTS)
+#: A writer at the head overwrites at most this far ahead of it.
+_LARGEST_RECORD = (RECORD_SIZE + MAX_FRAME + 7) & ~7
 _ACK = int(FrameKind.ack)
 _FIRST_CONTROL_KIND = min(CONTROL_KINDS)
 _SENDER = slice(SENDER_OFFSET, SENDER_OFFSET + 4)
@@ -532,18 +538,18 @@ class SharedMedium:
             at = RING_OFFSET + offset
             position, stamp, length, crc = _RECORD.unpack_from(mm, at)
             if position != cursor:
-                if position > cursor and position % RING_SIZE == offset:
-                    self._lapped()
+                if self._stalled():
                     continue
-                self._stalled()
                 return None
             size = 0 if length == PAD else length
             if size > room - RECORD_SIZE:
-                self._stalled()
+                if self._stalled():
+                    continue
                 return None
             frame = mm[at + RECORD_SIZE : at + RECORD_SIZE + size]
             if _crc(frame, _crc(mm[at : at + _CHECKED])) != crc:
-                self._stalled()
+                if self._stalled():
+                    continue
                 return None
             if length == PAD:
                 self._cursor = cursor + room
@@ -553,12 +559,13 @@ class SharedMedium:
                 self._stamp = stamp
                 return frame
 
-    def _stalled(self) -> None:
-        # Nothing valid at the cursor: not written yet (or not all of it visible
-        # yet), unless the writers have gone a whole ring past this reader.
-        if self._head() - self._cursor > RING_SIZE:
+    def _stalled(self) -> bool:
+        """Nothing valid at the cursor: not written yet (or not all of it visible
+        yet), unless the writers have gone a ring past this reader (True)."""
+        if self._head() - self._cursor > RING_SIZE - _LARGEST_RECORD:
             self._lapped()
-        return None
+            return True
+        return False
 
     def _lapped(self) -> None:
         # Back to the first record of the writers' current lap, which starts at
