@@ -447,7 +447,7 @@ class SharedMedium:
         mm = self._mm
         self._lock()
         try:
-            head = self._writable_head()
+            head = before = self._writable_head()
             offset = head % RING_SIZE
             room = RING_SIZE - offset
             need = _align(RECORD_SIZE + length)
@@ -458,6 +458,8 @@ class SharedMedium:
                 offset = 0
             self._write_record(head, offset, frame, length)
             _HEAD.pack_into(mm, _HEAD_AT, head + need)
+            if self._cursor == before:
+                self._cursor = head + need  # its own frame: no reader of it here
             armed = mm[_ARMED_AT:_SLOTS_AT]
             ring = () if armed == _NONE_ARMED else self._disarm_addressed(armed, frame)
         finally:
@@ -591,7 +593,10 @@ class SharedMedium:
     def _sleep(self, seconds: float) -> bool:
         """Armed: wait for the doorbell at most ``seconds``; whether it rang."""
         assert self._bell is not None
-        if seconds != self._bell_timeout:
+        # The socket's timeout is a system call to change: changed only when it must
+        # shrink by more than a poll interval or could double, as the UDP medium does.
+        current = self._bell_timeout
+        if seconds < current - self._poll or seconds > 2 * current:
             set_receive_timeout(self._bell, seconds)
             self._bell_timeout = seconds
         try:
