@@ -8,10 +8,11 @@ import sys
 from collections.abc import Iterable
 from typing import Any
 
+from fw1394.errors import UsageError
 from fw1394.packets import hextext
 
 
-class CliError(Exception):
+class CliError(UsageError):
     """A problem with the user's input or environment, printed as one line."""
 
 

@@ -33,9 +33,11 @@ from construct import (
     this,
 )
 
+from fw1394.errors import PacketError
 from fw1394.packets.asynchronous import tcode_of
 from fw1394.packets.enums import TCode
 from fw1394.packets.fast import FIELD_NAMES, decode_header
+from fw1394.packets.fields import FieldRangeError
 from fw1394.packets.layouts import LAYOUTS
 from fw1394.packets.nodeid import BROADCAST_PHY
 
@@ -186,13 +188,8 @@ BLOCK_PACKET_OVERHEAD = _wire_size(TCode.read_block_response)
 # -- errors -----------------------------------------------------------------------------
 
 
-class Eth1394Error(ValueError):
+class Eth1394Error(PacketError):
     """A datagram or a field of one does not fit the framing."""
-
-    def __init__(self, field: str, problem: str) -> None:
-        super().__init__(f"{field}: {problem}")
-        self.field = field
-        self.problem = problem
 
 
 class DatagramTooShortError(Eth1394Error):
@@ -201,10 +198,6 @@ class DatagramTooShortError(Eth1394Error):
 
 class ResponseSizeError(Eth1394Error):
     """A response shorter than the size the host waits for."""
-
-
-class FieldRangeError(Eth1394Error):
-    """A field value that does not fit its bits."""
 
 
 def _check_range(field: str, value: int, bits: int) -> None:

@@ -33,6 +33,8 @@ from construct import (
     Struct,
 )
 
+from fw1394.errors import PacketError
+
 #: Length prefix of every frame.
 LENGTH = struct.Struct(">I")
 #: No message is longer: the longest block plus its headers, with room to spare.
@@ -146,7 +148,7 @@ class Reply:
         return LENGTH.pack(len(body)) + body
 
 
-class ProtocolError(ValueError):
+class ProtocolError(PacketError):
     """Bytes that are not a message of this protocol."""
 
 
