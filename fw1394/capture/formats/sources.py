@@ -22,10 +22,10 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
-from fw1394.capture.analysis import batch as batches
-from fw1394.capture.analysis.batch import Batch
+from fw1394.capture.formats import batch as batches
 from fw1394.capture.formats import containers, kernel, nosy
 from fw1394.capture.formats import eth1394_udp as udp
+from fw1394.capture.formats.batch import Batch
 from fw1394.capture.formats.containers import Issue, PacketChunk
 from fw1394.capture.formats.pseudo_header import LINKTYPE_FW1394
 from fw1394.capture.formats.record import BusRecord
