@@ -44,6 +44,8 @@ NONE = -1
 
 
 class Op(IntEnum):
+    """The operations a bus adapter request asks for."""
+
     info = 0
     read = 1
     write = 2
