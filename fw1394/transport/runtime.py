@@ -52,14 +52,16 @@ class MemberRecord:
     #: Frames dropped without a valid MAC, and as replays; None on an insecure bus.
     forged: int | None = None
     replayed: int | None = None
+    #: Frames dropped as no well-formed frame of their kind (on every bus).
+    malformed: int = 0
 
 
 class MemberFile:
     """This member's file in the bus's runtime directory (``bus down``, ``bus status``)."""
 
-    def __init__(self, bus: str, info: MemberInfo, dropped: DropCounts | None) -> None:
+    def __init__(self, bus: str, info: MemberInfo, dropped: DropCounts, *, keyed: bool) -> None:
         self._directory = bus_dir(bus)
-        self._info, self._dropped = info, dropped
+        self._info, self._dropped, self._keyed = info, dropped, keyed
         self._path: Path | None = None
         self._written: int | None = None
         self._due = 0.0
@@ -68,7 +70,7 @@ class MemberFile:
     def update(self, now: float) -> None:
         # Rewritten when the drop counts changed, at most once a second.
         dropped = self._dropped
-        total = None if dropped is None else dropped.total
+        total = dropped.total
         if (self._path is not None and total == self._written) or now < self._due:
             return
         self._written, self._due = total, now + 1.0
@@ -77,8 +79,9 @@ class MemberFile:
             info.pid,
             info.member_id,
             info.host,
-            None if dropped is None else dropped.forged,
-            None if dropped is None else dropped.replayed,
+            dropped.forged if self._keyed else None,
+            dropped.replayed if self._keyed else None,
+            dropped.malformed,
         )
         with contextlib.suppress(OSError):  # a read-only runtime directory costs only this
             self._path = write_member(self._directory, record)
