@@ -266,13 +266,17 @@ def _run_access(client: Any, scan: Any, args: argparse.Namespace) -> int:
 
 
 def _run_rt(client: Any, scan: Any, args: argparse.Namespace) -> int:
+    from fw1394.jhu.hub_parse import MixedFirmwareError
     from fw1394.jhu.rt_loop import RealTimeLoop, measure
     from fw1394.jhu.scan import Protocol
 
     if args.cycles < 1:
         raise CliError(f"--cycles {args.cycles}: give 1 or more")
     protocol = Protocol(args.protocol) if args.protocol else None
-    loop = RealTimeLoop(client, scan, protocol)
+    try:
+        loop = RealTimeLoop(client, scan, protocol)
+    except MixedFirmwareError as error:
+        raise CliError(f"--protocol {args.protocol}: {error}") from None
     # Everything the loop needs exists now and lives to the end: kept out of the
     # collector's sweeps, which each cycle's short-lived objects keep triggering.
     gc.freeze()
