@@ -100,6 +100,8 @@ class BoardPort:
         self.port = port
         self._generation: int | None = None
         self._boards: dict[int, list[int]] = {}
+        #: The member table of the latest look-up, in physical-ID order.
+        self.members: tuple[MemberInfo, ...] = ()
         #: The latest resolutions that changed a board's physical ID or generation.
         self.resolutions: deque[Resolution] = deque(maxlen=256)
         #: Board ID -> (generation, physical ID) it was last resolved to.
@@ -134,6 +136,7 @@ class BoardPort:
     def _refresh(self) -> None:
         generation, members = self.port.table()
         self._generation, self._boards = generation, board_phys(members)
+        self.members = members
 
     def _note(self, board_id: int, phy: int | None) -> None:
         generation = self._generation

@@ -367,7 +367,7 @@ def parse_response(payload: bytes, expected_packet_size: int | None = None) -> E
         )
     if expected_packet_size is not None and len(payload) != EXTRA_SIZE:
         if expected_packet_size < 0:
-            raise FieldRangeError("expected_packet_size", f"{expected_packet_size} is negative")
+            raise Eth1394Error("expected_packet_size", f"{expected_packet_size} is negative")
         wanted = expected_packet_size + EXTRA_SIZE
         if len(payload) < wanted:
             raise ResponseSizeError("datagram", f"{len(payload)} bytes, host waits for {wanted}")
