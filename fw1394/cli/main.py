@@ -14,11 +14,14 @@ import importlib
 import pkgutil
 import sys
 from collections.abc import Sequence
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
-from fw1394.cli.common import fail
+from fw1394.cli.common import fail, reported_write_errors
 from fw1394.errors import Error
 from fw1394.version import __version__
+
+if TYPE_CHECKING:
+    from _typeshed import SupportsWrite
 
 DESCRIPTION = """\
 fw1394: a wire-level IEEE 1394 (FireWire) protocol toolkit.
@@ -39,6 +42,12 @@ class OneLineParser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:
         text = " ".join(message.split())
         self.exit(2, f"{self.prog}: error: {text} (see {self.prog} --help)\n")
+
+    def _print_message(self, message: str, file: SupportsWrite[str] | None = None) -> None:
+        # argparse drops a failed write of --help silently; let it reach the
+        # command's write-error report instead.
+        if message:
+            (file or sys.stderr).write(message)
 
     def add_subparsers(self, **kwargs: Any) -> Any:
         kwargs.setdefault("parser_class", SubcommandParser)
@@ -78,12 +87,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
-    if args.command is None:
-        parser.print_help()
-        return 0
     try:
-        status: int = args.handler(args)
+        with reported_write_errors():
+            args = parser.parse_args(argv)
+            if args.command is None:
+                parser.print_help()
+                return 0
+            status: int = args.handler(args)
     except Error as error:
         return fail(" ".join(str(error).split()) or type(error).__name__)
     except KeyboardInterrupt:

@@ -130,24 +130,26 @@ class Sealer:
 
 @dataclass(slots=True)
 class DropCounts:
-    """Frames a member dropped: no valid MAC, or a counter already seen."""
+    """Frames a member dropped: no valid MAC, a counter already seen, or (keyed or
+    not) bytes that are no well-formed frame of their kind."""
 
     forged: int = 0
     replayed: int = 0
+    malformed: int = 0
 
     @property
     def total(self) -> int:
-        return self.forged + self.replayed
+        return self.forged + self.replayed + self.malformed
 
 
 class Verifier:
     """Checks each received frame; what it drops is counted in :attr:`dropped`."""
 
-    def __init__(self, key: bytes) -> None:
+    def __init__(self, key: bytes, dropped: DropCounts | None = None) -> None:
         self._keyed = hashlib.blake2s(key=key, digest_size=FRAME_MAC_SIZE)
         #: sender member id -> (newest counter, bit k set: newest - k seen)
         self._windows: dict[int, tuple[int, int]] = {}
-        self.dropped = DropCounts()
+        self.dropped = DropCounts() if dropped is None else dropped
 
     def authentic(self, raw: bytes) -> bool:
         """Whether ``raw`` carries a valid MAC (no replay check, nothing counted)."""

@@ -76,7 +76,7 @@ class KernelTextReader:
             return traced_ns, True
         match = DMESG_TIME.match(line)
         if match:
-            return int(match[1]) * 1_000_000_000 + int(match[2].ljust(9, "0")[:9]), True
+            return kernel_trace.nanoseconds(match[1], match[2]), True
         self._order += 1
         return self._order, False
 
