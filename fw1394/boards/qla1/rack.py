@@ -33,7 +33,7 @@ from fw1394.boards.qla1.firewire import (
     is_hub_query,
     query_reaches_every_node,
 )
-from fw1394.boards.qla1.rack_fast import RackFastPath
+from fw1394.boards.qla1.rack_fast import RackBoard, RackFastPath
 from fw1394.engine import JHU_FIRMWARE, Responder
 from fw1394.packets import BlockWriteRequest, Request, Response
 from fw1394.packets.fast import encode_packet
@@ -64,17 +64,6 @@ class RackLink:
     @property
     def resetting(self) -> bool:
         return self._bus.resetting
-
-
-@dataclass
-class RackBoard:
-    board: Qla1Board
-    responder: Responder
-    port: EthernetPort | None
-
-    @property
-    def node_id(self) -> int:
-        return self.responder.node_id & BROADCAST_PHY
 
 
 class Rack:

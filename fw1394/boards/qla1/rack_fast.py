@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from fw1394.boards.qla1.ethernet import EthernetPort, HostAddress, Reply, decode_request
@@ -37,7 +38,21 @@ from fw1394.packets.nodeid import node_id as node_id_of
 from fw1394.transport.eth1394_addresses import MULTICAST_FIRMWARE
 
 if TYPE_CHECKING:
-    from fw1394.boards.qla1.rack import RackBoard
+    from fw1394.boards.qla1.board import Qla1Board
+    from fw1394.engine import Responder
+
+
+@dataclass
+class RackBoard:
+    """One board of a rack: its registers, the responder in front, its Ethernet port."""
+
+    board: Qla1Board
+    responder: Responder
+    port: EthernetPort | None
+
+    @property
+    def node_id(self) -> int:
+        return self.responder.node_id & BROADCAST_PHY
 
 #: The destination of the host's broadcasts: every node of the local bus.
 HOST_BROADCAST = node_id_of(BROADCAST_PHY, LOCAL_BUS)
