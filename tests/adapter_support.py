@@ -28,8 +28,12 @@ NODE_TIMING = ("--heartbeat", "0.1", "--lease", "2.0")
 
 
 @contextmanager
-def adapter_bus(tag: str, nodes: int, board: str = "memory") -> Iterator[AdapterBus]:
-    """A bus of ``nodes`` node processes and its adapter, stopped at the end."""
+def adapter_bus(
+    tag: str, nodes: int, board: str = "memory", node_options: tuple[str, ...] = ()
+) -> Iterator[AdapterBus]:
+    """A bus of ``nodes`` node processes and its adapter, stopped at the end.
+
+    ``node_options`` go to every node (``--loss 0.05``, say); the adapter ignores them."""
     runtime = Path(tempfile.mkdtemp(prefix="fw"))
     config = BusConfig(bus_name(tag))
     bus = LaunchedBus(
@@ -37,7 +41,7 @@ def adapter_bus(tag: str, nodes: int, board: str = "memory") -> Iterator[Adapter
         nodes,
         board=board,
         root=runtime / "fw1394",
-        node_arguments=(*NODE_TIMING, "--adapter"),
+        node_arguments=(*NODE_TIMING, *node_options, "--adapter"),
     )
     try:
         with bus:
