@@ -36,6 +36,10 @@ def adapter_bus(
     ``node_options`` go to every node (``--loss 0.05``, say); the adapter ignores them."""
     runtime = Path(tempfile.mkdtemp(prefix="fw"))
     config = BusConfig(bus_name(tag))
+    # Every member's runtime files (members/) under the test's root, this process's
+    # hosts and the bus's nodes alike, so that they go with it.
+    outer = os.environ.get("XDG_RUNTIME_DIR")
+    os.environ["XDG_RUNTIME_DIR"] = str(runtime)
     bus = LaunchedBus(
         config,
         nodes,
@@ -58,6 +62,10 @@ def adapter_bus(
             yield ready
         assert wait_until_gone(config.name) == [], f"processes of bus {config.name} outlived it"
     finally:
+        if outer is None:
+            os.environ.pop("XDG_RUNTIME_DIR", None)
+        else:
+            os.environ["XDG_RUNTIME_DIR"] = outer
         shutil.rmtree(runtime, ignore_errors=True)
 
 
