@@ -172,7 +172,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         from fw1394.capture.formats import sources
         from fw1394.capture.views.display_filter import DisplayFilter, FilterError
-        from fw1394.capture.views.dissection import Dissection, Options
+        from fw1394.capture.views.dissection import Dissection, Options, pair_links
         from fw1394.capture.views.trace_plots import (
             PlotError,
             check_plot_path,
@@ -227,6 +227,26 @@ def run(args: argparse.Namespace) -> int:
             display_filter = DisplayFilter(args.display_filter, args.view)
         except FilterError as error:
             raise CliError(str(error)) from None
+    links = None
+    if display_filter is not None and args.view == "packets":
+        from fw1394.capture.views.display_filter import LINK_FIELDS
+
+        linked = sorted(display_filter.fields & LINK_FIELDS)
+        if linked and path == sources.STDIN:
+            raise CliError(
+                f"-Y on {', '.join(linked)} pairs the whole trace before showing a packet: "
+                "give a file, not standard input (or filter --transactions)"
+            )
+        if linked:
+            fmt = sources.detect(path) if args.format == "auto" else args.format
+            try:
+                links = pair_links(
+                    sources.jobs(path, fmt, sources.PortTally((args.port,))),
+                    True if args.verify_crc else None,
+                    args.threads,
+                )
+            except sources.SourceError as error:
+                raise CliError(str(error)) from None
     options = Options(
         view=args.view,
         output="json" if args.json else "csv" if args.csv else "text",
@@ -241,6 +261,7 @@ def run(args: argparse.Namespace) -> int:
         display_filter=display_filter,
         count=args.count,
         time_format=args.time_format,
+        links=links,
     )
     name = "standard input" if path == sources.STDIN else path
     ports = sources.PortTally((args.port,))

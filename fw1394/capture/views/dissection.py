@@ -28,7 +28,7 @@ from fw1394.capture.analysis.stats import Stats
 from fw1394.capture.analysis.transactions import Pairer, Transactions
 from fw1394.capture.formats import sources
 from fw1394.capture.formats.record import RecordType
-from fw1394.capture.views.filter_columns import packet_columns, transaction_columns
+from fw1394.capture.views.filter_columns import Links, packet_columns, transaction_columns
 from fw1394.capture.views.packet_view import PACKET_CSV, PacketFormatter
 from fw1394.capture.views.time_format import TimeColumn, previous_times, splice
 from fw1394.capture.views.transaction_view import TRANSACTION_CSV, TransactionFormatter
@@ -57,6 +57,8 @@ class Options:
     #: Read only this many records (as ``tshark -r -c``), whatever the view.
     count: int | None = None
     time_format: str = "r"
+    #: The whole trace's pairing, for packet filters on request_in, latency ... (see pair_links)
+    links: Links | None = None
 
 
 @dataclass
@@ -117,6 +119,21 @@ def decoded_batches(
                 with contextlib.suppress(queue.Empty):
                     ahead.get(timeout=0.05)
             reader.join()
+
+
+def pair_links(jobs: Iterator[sources.Job], verify_crc: bool | None, workers: int) -> Links:
+    """A first pass over a trace that pairs every transaction, so that a packet
+    filter knows a request's response frame before it reaches it (tshark's
+    two passes do the same)."""
+    pairer = Pairer()
+    ended: list[Transactions] = []
+    last_frame = 0
+    for batch, decoded in decoded_batches(jobs, verify_crc, workers):
+        if len(batch):
+            last_frame = max(last_frame, int(batch.frame.max()))
+        ended.extend(pairer.feed(batch, decoded))
+    ended.extend(pairer.finish())
+    return Links.of(ended, last_frame)
 
 
 class Dissection:
@@ -219,7 +236,7 @@ class Dissection:
                 | np.isin(batch.sender, ids)
             )
         if o.display_filter is not None and o.view == "packets" and keep.any():
-            columns = packet_columns(batch, decoded, self.origin_ns or 0)
+            columns = packet_columns(batch, decoded, self.origin_ns or 0, o.links)
             keep &= o.display_filter(columns, len(batch))
         return keep
 
