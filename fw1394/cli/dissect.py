@@ -20,11 +20,14 @@ formats (detected, or named with --format):
   nosy     nosy-dump --output files
   kernel   Linux kernel text: firewire tracepoints, firewire-ohci debug lines
 
-display filter (-Y), with the field names of `fw1394 wireshark-dissector`
-(fw1394.tcode or tcode): == != < <= > >=, && and, || or, ! not, parentheses,
-integers (12, 0x1f), value names (read_quadlet_request, resp_complete,
-ack_pending), durations (100us, 1.5ms). A field missing from a row fails
-every comparison. Fields (docs/dissect.md has more):
+display filter (-Y): Wireshark's language with the field names the Lua
+dissector registers (`fw1394 wireshark-dissector`), so a filter runs in both
+(fw1394.tcode, or tcode for short): == != < <= > >=, && and, || or, ! not,
+parentheses, in {{4, 5, 8..10}}, contains and matches on fw1394.kind and
+fw1394.data, integers (12, 0x1f), value names (read_quadlet_request,
+resp_complete, ack_pending), times in seconds as tshark writes them
+(fw1394.response_time > 0.0002) or with a unit (200us, 1.5ms). A field
+missing from a row fails every comparison. Fields (docs/dissect.md has more):
 {fields}
 
 examples:
@@ -32,6 +35,7 @@ examples:
   fw1394 dissect trace.pcapng --transactions --node 2 --tcode read_block_request
   fw1394 dissect trace.pcapng -Y 'tcode == read_quadlet_request && dst == 0xffc1'
   fw1394 dissect trace.pcapng --transactions -Y 'rcode != resp_complete || latency > 100us'
+  fw1394 dissect trace.pcapng -Y 'fw1394.header_crc.status == 0 || fw1394.response_time > 0.0002'
   fw1394 dissect trace.pcapng -t ud -c 20             first 20 packets, UTC times
   fw1394 capture -w - -c 100 | fw1394 dissect -       from a pipe
   fw1394 dissect dmesg.txt --stats --json
