@@ -37,6 +37,8 @@ from fw1394.boards.qla1.regs import (
     HUB_QUERY,
     IP_UNASSIGNED,
     MAX_BOARD_ID,
+    OLD_QUERY_LAST_FIRMWARE,
+    OLD_QUERY_OFFSET,
     QLA1_HARDWARE_VERSION,
     SPACE_SHIFT,
     BoardRegister,
@@ -188,6 +190,9 @@ class Qla1Board:
         self.watchdog.clear_count(self._now)
         if in_csr_window(offset):
             self.csr.write(offset & CSR_BYTE_MASK, value)
+            return
+        if offset == OLD_QUERY_OFFSET and self.firmware <= OLD_QUERY_LAST_FIRMWARE:
+            self._broadcast_query(value)
             return
         self._write_index(_register_address(offset), value)
 
@@ -399,7 +404,7 @@ class Qla1Board:
         elif self.firmware == 7:
             write = rt.decode_rev7_write(words, board)
         else:
-            write = rt.decode_old_write(words)
+            write = rt.decode_old_write(words, board)
         self.apply_rt_write(write)
 
     def apply_rt_write(self, write: rt.RtWrite) -> None:

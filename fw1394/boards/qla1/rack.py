@@ -29,9 +29,10 @@ from fw1394.boards.qla1.ethernet import (
 )
 from fw1394.boards.qla1.firewire import (
     ClockedBoard,
+    as_snooped,
     hub_broadcast,
-    is_hub_query,
-    query_reaches_every_node,
+    reaches_every_node,
+    takes_query,
 )
 from fw1394.boards.qla1.rack_fast import RackFastPath
 from fw1394.engine import JHU_FIRMWARE, Responder
@@ -178,7 +179,7 @@ class Rack:
 
     def _forward(self, source: int, packet: Request, now: float) -> list[tuple[int, Action]]:
         """Deliver ``packet`` on the bus from board ``source``; what follows from it."""
-        if packet.destination_node == BROADCAST_PHY or query_reaches_every_node(packet):
+        if reaches_every_node(packet):
             targets = [n for n in range(len(self.members)) if n != source]
         else:
             targets = [
@@ -189,11 +190,13 @@ class Rack:
         follow: list[tuple[int, Action]] = []
         for target in targets:
             member = self.members[target]
-            reply = member.responder.receive_packet(packet, now, damaged=damaged)
+            named = packet.destination_node in (member.node_id, BROADCAST_PHY)
+            seen = packet if named else as_snooped(packet)
+            reply = member.responder.receive_packet(seen, now, damaged=damaged)
             if isinstance(reply.response, Response) and origin_port is not None:
                 raw = encode_packet(reply.response)  # a FireWire node's response: real CRCs
                 follow += [(source, a) for a in origin_port.firewire_response(raw, now)]
-            if is_hub_query(packet):
+            if takes_query(packet, member.board.firmware):
                 follow += self._after_query(target, now)
         return follow
 
