@@ -17,6 +17,7 @@ from types import FrameType
 from typing import Any
 
 from fw1394.cli.common import CliError, integer, print_table
+from fw1394.errors import Error
 
 EXAMPLES = """\
 examples:
@@ -178,7 +179,7 @@ def run_serve(args: argparse.Namespace) -> int:
     return 0
 
 
-class _Stopped(Exception):
+class _Stopped(Error):
     """SIGTERM or SIGINT ended ``jhu serve``."""
 
 
