@@ -40,6 +40,8 @@ def snapshot(value: Any) -> Any:
     """Everything an object holds, as plain data (callables only named)."""
     if value is None or isinstance(value, int | float | str | bytes):
         return value
+    if isinstance(value, bytearray):
+        return bytes(value)
     if callable(value):
         return "callable"  # a method or handler: behaviour, not state
     if isinstance(value, list | tuple):

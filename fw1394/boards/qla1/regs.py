@@ -152,6 +152,15 @@ FAKE_BROADCAST_OFFSET = 0xFFFF_FFFF_0000
 OLD_QUERY_OFFSET = 0xFFFF_FFFF_000F
 OLD_QUERY_LAST_FIRMWARE = 6
 
+# -- PROM spaces (fw1394.boards.qla1.prom) ---------------------------------------------
+
+#: The configuration PROM's page buffer (firmware 4 on).
+PROM_BUFFER_BASE = 0x2000
+#: The QLA PROM: command, result, 16-quadlet buffer.
+QLA_PROM_COMMAND = 0x3000
+QLA_PROM_RESULT = 0x3002
+QLA_PROM_BUFFER = 0x3100
+
 #: IP_ADDR value meaning "no address assigned".
 IP_UNASSIGNED = 0xFFFFFFFF
 
