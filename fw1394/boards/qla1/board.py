@@ -214,6 +214,9 @@ class Qla1Board:
             words = [self.csr.read((start + 4 * n) & CSR_BYTE_MASK) for n in range(count)]
         elif _space(_register_address(offset)) == Space.MAIN:
             words = self._rt_block_read(_register_address(offset), count)
+        elif _space(_register_address(offset)) == Space.HUB:
+            # Hub memory is laid out once per read, not once per quadlet.
+            words = self.hub.read_registers(self._block_indices(offset, count), self._now)
         else:
             words = [self._read_index(index) for index in self._block_indices(offset, count)]
         return _quadlets_to_bytes(words)[:length]
