@@ -35,10 +35,22 @@ from fw1394.rtl.regbus import RegisterServer
 
 IDLE, STATUS, RECEIVE, GRANT = 0b00, 0b01, 0b10, 0b11
 HOLD, TRANSMIT = 0b01, 0b10
-#: S400 speed code, D0 first.
-SPEED_S400 = 0x50
+#: Speeds by index (as ImmReq carries them, shifted right once): S100, S200, S400.
+S100, S200, S400 = 0, 1, 2
+SPEED_NAMES = ("S100", "S200", "S400")
+#: The speed code the PHY puts on D after data-on, D0 first.
+SPEED_CODES = (0x00, 0x40, 0x50)
+#: Bits carried per SCLK cycle at each speed (D0-D1, D0-D3, D0-D7).
+SPEED_BITS = (2, 4, 8)
 #: Hold may last this many cycles at most (1394a).
 MAX_HOLD = 47
+#: Idle cycles a link may assert after a grant without Transmit (a null packet).
+MAX_NULL_IDLE = 3
+#: Cycles the PHY waits after a concatenation request before it grants again (the
+#: minimum packet separation, data-end to the next data-prefix).
+PACKET_SEPARATION = 8
+#: Packets one concatenation chain may hold (ack, response, and then some).
+MAX_CONCATENATED = 4
 #: Request types on LREQ, and the bits after the type (the stop bit included).
 REQUEST_BITS = {0: 4, 1: 4, 2: 4, 3: 4, 4: 5, 5: 13, 6: 2}
 BUS_REQUESTS = {0: "ImmReq", 1: "IsoReq", 2: "PriReq", 3: "FairReq"}
@@ -64,6 +76,15 @@ class Capture(NamedTuple):
     packets: list[bytes]
     #: Cycles from the end of the received packet to the first transmitted byte.
     delay: int
+
+
+class _Tenure(NamedTuple):
+    packets: list[bytes]
+    #: Cycles from the Grant to the first transmitted symbol (None: nothing sent).
+    first_byte: int | None
+    #: The link asked for the next packet to be concatenated (Hold, then Idle).
+    concatenate: bool
+    cycles: int
 
 
 class Reply(NamedTuple):
@@ -228,11 +249,13 @@ class Phy:
             + [value >> (7 - i) & 1 for i in range(8)]
         )
 
-    async def receive(self, raw: bytes, *, interrupting: int = 0) -> None:
-        """Deliver a packet as the PHY does: data-on, speed code, bytes, then Idle.
+    async def receive(self, raw: bytes, *, interrupting: int = 0, speed: int = S400) -> None:
+        """Deliver a packet as the PHY does: data-on, speed code, bits, then Idle.
 
-        ``interrupting``: first start a status transfer of register 0 and cut it
-        after that many cycles, as a PHY does when a packet arrives meanwhile.
+        ``speed``: S100 sends two bits a cycle on D0-D1, S200 four on D0-D3, S400
+        a byte on D0-D7. ``interrupting``: first start a status transfer of
+        register 0 and cut it after that many cycles, as a PHY does when a packet
+        arrives meanwhile.
         """
         step = self.step
         if interrupting:
@@ -243,9 +266,17 @@ class Phy:
         await step(True, RECEIVE, 0xFF)
         await step(True, RECEIVE, 0xFF)
         if raw:
-            await step(True, RECEIVE, SPEED_S400)
-            for byte in raw:
-                await step(True, RECEIVE, byte)
+            await step(True, RECEIVE, SPEED_CODES[speed])
+            if speed == S400:
+                for byte in raw:
+                    await step(True, RECEIVE, byte)
+            else:
+                width = SPEED_BITS[speed]
+                mask = (1 << width) - 1
+                for byte in raw:
+                    for shift in range(8 - width, -1, -width):
+                        # The symbol on the top lines (D0 first), the rest low.
+                        await step(True, RECEIVE, (byte >> shift & mask) << (8 - width))
         await step()
 
     async def bus_reset(self) -> None:
@@ -260,7 +291,7 @@ class Phy:
         while self.requests:
             request = self.requests.popleft()
             if request.kind in BUS_REQUESTS:
-                captures.append(await self.grant(0))
+                captures.append(await self.grant(0, speed=_speed_of(request)))
             elif request.kind == 4:
                 await self.register_status(request.payload & 0xF)
             elif request.kind == 5:
@@ -272,52 +303,116 @@ class Phy:
         return captures
 
     # -- what the link sends ------------------------------------------------------------
-    async def grant(self, since_end: int) -> Capture:
-        """Grant the bus and capture every packet the link sends until it lets go."""
+    async def grant(self, since_end: int, *, speed: int = S400) -> Capture:
+        """Grant the bus and capture every packet the link sends until it lets go.
+
+        A packet ended with Hold asks for concatenation: the PHY waits the
+        minimum packet separation and grants again, and the next packet joins
+        this capture (the response behind its ack_pending).
+        """
+        packets: list[bytes] = []
+        first_byte: int | None = None
+        cycles = 0
+        for _ in range(MAX_CONCATENATED):
+            tenure = await self._tenure(speed)
+            if tenure.first_byte is not None and first_byte is None:
+                first_byte = since_end + cycles + tenure.first_byte
+            packets += tenure.packets
+            cycles += tenure.cycles
+            if not tenure.concatenate:
+                break
+            for _ in range(PACKET_SEPARATION):
+                await self.step()
+            cycles += PACKET_SEPARATION
+        return Capture(packets, first_byte if first_byte is not None else -1)
+
+    async def _tenure(self, speed: int) -> _Tenure:
+        """One Grant and what the link does with the interface until it gives it back."""
         step = self.step
         await step(True, GRANT, 0)
         await step(True, IDLE, 0)
+        width = SPEED_BITS[speed]
         packets: list[bytes] = []
         current: bytearray | None = None
-        started = False
-        hold = 0
+        symbol = symbols = 0
+        # take: not driving yet; prefix: Idle/Hold before Transmit; data: Transmit;
+        # end: the cycle after the data (Hold or Idle); close: the one more Idle.
+        phase = "take"
+        idles = hold = 0
         first_byte: int | None = None
+        concatenate = False
         cycles = 2
         for _ in range(OWN_LIMIT):
             mon = await step(False)
             cycles += 1
             if not mon >> MON_OE & 1:
-                if started:
+                if phase == "take":
+                    if cycles > GRANT_TIMEOUT:
+                        break  # the link did not take the bus it asked for
+                    continue
+                if phase == "data":
                     self._violate("release", "the link let go of the interface without Idle")
-                    break
-                if cycles > GRANT_TIMEOUT:
-                    break  # the link did not take the bus it asked for
-                continue
-            ctl = mon >> MON_CTL & 3
-            started = True
-            if ctl == TRANSMIT:
-                if first_byte is None:
-                    first_byte = since_end + cycles
-                if current is None:
-                    current = bytearray()
-                current.append(mon & 0xFF)
-                hold = 0
-            elif ctl == HOLD:
-                if current is not None:
-                    packets.append(bytes(current))
-                    current = None
-                hold += 1
-                if hold == MAX_HOLD + 1:
-                    self._violate("hold", f"Hold kept longer than {MAX_HOLD} cycles")
-            elif ctl == IDLE:
+                elif phase == "end":
+                    self._violate(
+                        "closing-idle",
+                        "the link let go right after its packet, without the closing Idle",
+                    )
+                elif phase == "prefix" and hold:
+                    self._violate("release", "the link let go after Hold without transmitting")
                 break
-            else:
+            ctl = mon >> MON_CTL & 3
+            if ctl == 0b11:
                 self._violate("ctl-reserved", "the link drove the reserved CTL value 11")
+                continue
+            if phase == "end":
+                if ctl == IDLE:
+                    phase = "close"
+                    break
+                self._violate(
+                    "no-grant",
+                    "the link transmitted its next packet without waiting for the PHY's Grant"
+                    if concatenate
+                    else "the link went on transmitting after ending its packet with Idle",
+                )
+                # Capture it all the same: its contents are judged by the other oracles.
+                concatenate = False
+                phase, idles, hold = "prefix", 0, 0
+            if phase in ("take", "prefix"):
+                if ctl == IDLE:
+                    idles += 1
+                    phase = "prefix"
+                    if idles > MAX_NULL_IDLE:
+                        break  # a null packet (split-flag pins cannot show the release)
+                    continue
+                if ctl == HOLD:
+                    hold += 1
+                    phase = "prefix"
+                    if hold == MAX_HOLD + 1:
+                        self._violate("hold", f"Hold kept longer than {MAX_HOLD} cycles")
+                    continue
+                phase = "data"
+                current = bytearray()
+                symbol = symbols = 0
+                if first_byte is None:
+                    first_byte = cycles
+            if phase == "data":
+                assert current is not None
+                if ctl == TRANSMIT:
+                    symbol = symbol << width | (mon & 0xFF) >> (8 - width)
+                    symbols += width
+                    if symbols == 8:
+                        current.append(symbol)
+                        symbol = symbols = 0
+                    continue
+                packets.append(bytes(current))
+                current = None
+                concatenate = ctl == HOLD
+                phase = "end"
         else:
             self._violate("ownership", f"the link kept the bus {OWN_LIMIT} cycles")
         if current is not None:
             packets.append(bytes(current))
-        return Capture(packets, first_byte if first_byte is not None else -1)
+        return _Tenure(packets, first_byte, concatenate and phase in ("end", "close"), cycles)
 
     async def exchange(self, raw: bytes, *, interrupting: int = 0) -> Reply:
         """Deliver ``raw`` and return the link's ack, response and tenure."""
@@ -336,7 +431,7 @@ class Phy:
                 request = self.requests[0]
                 if request.kind in BUS_REQUESTS:
                     self.requests.popleft()
-                    captures.append(await self.grant(waited))
+                    captures.append(await self.grant(waited, speed=_speed_of(request)))
                     quiet = 0
                     if self._answered(captures):
                         break
@@ -398,3 +493,8 @@ class Phy:
             return Reply(code, first.packets[1], True)
         later = [p for c in captures[captures.index(first) + 1 :] for p in c.packets]
         return Reply(code, later[0] if later else None, False)
+
+
+def _speed_of(request: Request) -> int:
+    """The speed a bus request asks for (000 S100, 010 S200, 100 S400)."""
+    return min(request.payload >> 1 & 3, S400)

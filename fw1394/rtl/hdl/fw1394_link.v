@@ -5,8 +5,10 @@
 // It receives every packet the PHY delivers, checks the header CRC (and the
 // data CRC of block writes), drops damaged packets and packets for other nodes
 // silently, and serves quadlet and block reads and writes through a register
-// bus: reads are concatenated (ack_pending, Hold, response in the same bus
-// tenure), writes are unified (ack_complete). The node's physical ID comes
+// bus: reads are concatenated (ack_pending ended with Hold, then the response
+// after the PHY grants the bus again, the serial bus never released), writes
+// are unified (ack_complete). Every packet ends with Hold or Idle and one more
+// Idle before the link releases CTL and D. The node's physical ID comes
 // from PHY register 0, which the link asks for after reset and which the PHY
 // also sends after every bus reset.
 //
@@ -20,6 +22,12 @@
 //   FW1394_DEFECT_EARLY_ACK       a block write is acked once its header
 //                                 checks out, before its data CRC is known
 //   FW1394_DEFECT_LONG_HOLD       Hold is kept 60 cycles before a response
+//   FW1394_DEFECT_NO_SECOND_GRANT the response follows its ack's Hold at once,
+//                                 without waiting for the PHY's second Grant
+//   FW1394_DEFECT_NO_CLOSING_IDLE the link releases the interface right after
+//                                 the cycle that ends its packet
+//   FW1394_DEFECT_BAD_CRC_WRITE   a quadlet write whose header CRC fails is
+//                                 performed (and acked ack_data_error)
 module fw1394_link #(
     parameter MAX_BLOCK = 2048,
     parameter [9:0] BUS_ID = 10'h3FF
@@ -58,8 +66,10 @@ module fw1394_link #(
     localparam [3:0] RESP_COMPLETE = 4'h0, RESP_DATA_ERROR = 4'h5;
 `ifdef FW1394_DEFECT_LONG_HOLD
     localparam HOLD_CYCLES = 60;
-`else
+`elsif FW1394_DEFECT_NO_SECOND_GRANT
     localparam HOLD_CYCLES = 2;
+`else
+    localparam HOLD_CYCLES = 1;
 `endif
 
     // ---------------------------------------------------------------- receive
@@ -116,17 +126,23 @@ module fw1394_link #(
     wire        early = 1'b0;
 `endif
     wire        is_write = tcode == T_QWRITE || tcode == T_BWRITE;
+`ifdef FW1394_DEFECT_BAD_CRC_WRITE
+    wire        bad_crc_write = tcode == T_QWRITE && bcnt == expected && !header_good;
+`else
+    wire        bad_crc_write = 1'b0;
+`endif
 
     // ---------------------------------------------------------------- transmit
     localparam [3:0] TX_IDLE = 4'd0, TX_LREQ = 4'd1, TX_WAIT = 4'd2, TX_TURN = 4'd3,
                      TX_TURN2 = 4'd4, TX_ACK = 4'd5, TX_HOLD = 4'd6, TX_PKT = 4'd7,
-                     TX_END = 4'd8;
+                     TX_END = 4'd8, TX_CLOSE = 4'd9;
     reg [3:0]  tx_state;
     reg [16:0] lreq_sh;
     reg [4:0]  lreq_n;
     reg        lreq_imm;      // the request under way asks for the bus (else a register read)
     reg [3:0]  ack_code;
     reg        respond;       // a response follows the ack
+    reg        second;        // waiting for (or granted) the bus again for the response
     reg [3:0]  resp_tcode, rcode;
     reg [15:0] resp_dest, resp_len, resp_index;
     reg [5:0]  resp_tl;
@@ -189,6 +205,7 @@ module fw1394_link #(
         if (rst) begin
             rx_state <= RX_IDLE;
             tx_state <= TX_IDLE;
+            second <= 1'b0;
             phy_id <= 6'd0;
             phy_id_valid <= 1'b0;
             need_id <= 1'b1;
@@ -284,8 +301,9 @@ module fw1394_link #(
                     RX_DECIDE: begin
                         rx_state <= RX_IDLE;
                         // A packet that comes while the last one is still served is lost.
-                        if (mine && (sound || early) && tx_state == TX_IDLE && !cm_active) begin
-                            if (is_write && !too_long && sound) begin
+                        if (mine && (sound || early || bad_crc_write) && tx_state == TX_IDLE
+                            && !cm_active) begin
+                            if (is_write && !too_long && (sound || bad_crc_write)) begin
                                 cm_active <= 1'b1;
                                 cm_block <= tcode == T_BWRITE;
                                 cm_k <= 16'd0;
@@ -301,8 +319,9 @@ module fw1394_link #(
                                 lreq_sh <= {8'b1000_1000, 9'h0};
                                 lreq_n <= 5'd8;
                                 respond <= !is_write;
-                                ack_code <= is_write ? (too_long ? ACK_DATA_ERROR : ACK_COMPLETE)
-                                                     : ACK_PENDING;
+                                ack_code <= !is_write ? ACK_PENDING
+                                          : too_long || bad_crc_write ? ACK_DATA_ERROR
+                                          : ACK_COMPLETE;
                                 resp_tcode <= tcode == T_QREAD ? T_QREAD_RESP : T_BREAD_RESP;
                                 tx_block <= tcode == T_BREAD;
                                 rcode <= tcode == T_BREAD && too_long ? RESP_DATA_ERROR
@@ -343,32 +362,60 @@ module fw1394_link #(
                 end
                 TX_TURN: tx_state <= TX_TURN2;
                 TX_TURN2: begin
-                    tx_state <= TX_ACK;
-                    ctl_o <= CTL_DATA;
                     ctl_oe <= 1'b1;
-                    d_o <= {ack_code, ~ack_code};
                     d_oe <= 1'b1;
-                end
-                TX_ACK: begin
-                    if (respond) begin
+                    if (second) begin
+                        // Granted again: Hold while the response is set up, then send it.
                         tx_state <= TX_HOLD;
                         ctl_o <= CTL_HOLD;
                         d_o <= 8'h00;
                         hold_n <= 7'd0;
-                        // The first data quadlet, read while holding the bus.
+                    end else begin
+                        tx_state <= TX_ACK;
+                        ctl_o <= CTL_DATA;
+                        d_o <= {ack_code, ~ack_code};
+                    end
+                end
+                TX_ACK: begin
+                    d_o <= 8'h00;
+                    if (respond) begin
+                        // Hold ends the ack: a concatenation request. The first data
+                        // quadlet is read meanwhile.
+                        ctl_o <= CTL_HOLD;
                         reg_addr <= resp_index;
                         reg_len <= resp_len;
                         if (!tx_block) reg_rd <= 1'b1;
                         else if (rcode == RESP_COMPLETE) reg_blk_rd <= 1'b1;
+`ifdef FW1394_DEFECT_NO_SECOND_GRANT
+                        tx_state <= TX_HOLD;
+                        hold_n <= 7'd0;
+`else
+                        tx_state <= TX_CLOSE;
+                        second <= 1'b1;
+`endif
                     end else begin
-                        tx_state <= TX_END;
+                        tx_state <= TX_CLOSE;
                         ctl_o <= CTL_IDLE;
-                        d_o <= 8'h00;
                     end
+                end
+                TX_CLOSE: begin
+                    // One more Idle after the cycle that ended the packet.
+                    if (respond && second) fetched <= reg_rdata;
+`ifdef FW1394_DEFECT_NO_CLOSING_IDLE
+                    tx_state <= TX_IDLE;
+                    ctl_oe <= 1'b0;
+                    d_oe <= 1'b0;
+                    if (second) tx_state <= TX_WAIT;
+`else
+                    tx_state <= TX_END;
+                    ctl_o <= CTL_IDLE;
+`endif
                 end
                 TX_HOLD: begin
                     hold_n <= hold_n + 7'd1;
+`ifdef FW1394_DEFECT_NO_SECOND_GRANT
                     if (hold_n == 7'd0) fetched <= reg_rdata;
+`endif
                     if (hold_n == HOLD_CYCLES - 1) begin
                         tx_state <= TX_PKT;
                         ctl_o <= CTL_DATA;
@@ -394,7 +441,9 @@ module fw1394_link #(
                         end
                         if (tx_b == 2'd1 && tx_qi >= 16'd5) fetched <= reg_rdata;
                     end else if (tx_qi == last_q) begin
-                        tx_state <= TX_END;
+                        tx_state <= TX_CLOSE;
+                        respond <= 1'b0;
+                        second <= 1'b0;
                         ctl_o <= CTL_IDLE;
                         d_o <= 8'h00;
                     end else begin
@@ -407,7 +456,8 @@ module fw1394_link #(
                     end
                 end
                 TX_END: begin
-                    tx_state <= TX_IDLE;
+                    // Release; after a concatenation request, wait for the next Grant.
+                    tx_state <= second ? TX_WAIT : TX_IDLE;
                     ctl_oe <= 1'b0;
                     d_oe <= 1'b0;
                 end
