@@ -57,6 +57,7 @@ class Node:
             ack_gap=self.portmap.ack_gap,
             registers=server,
             poll_reads="rd" not in self.portmap.registers,
+            release_visible=self.portmap.style != "split-flag",
         )
         self.dut.rst.value = 1
         await phy.idle(RESET_CYCLES)

@@ -104,11 +104,14 @@ class Phy:
         ack_gap: int,
         registers: RegisterServer | None,
         poll_reads: bool = False,
+        release_visible: bool = True,
     ) -> None:
         self.dut = dut
         self.physical_id = physical_id
         self.ack_gap = ack_gap
         self.server = registers
+        #: The pins show when the link lets go (not so with a PHY-drives flag).
+        self.release_visible = release_visible
         #: PHY registers 0-15 (1394a base page), as a link reads them with RdReg.
         self.registers = [0] * 16
         self.registers[2] = 0xE2  # extended, two ports
@@ -321,9 +324,9 @@ class Phy:
             cycles += tenure.cycles
             if not tenure.concatenate:
                 break
-            for _ in range(PACKET_SEPARATION):
+            for _ in range(PACKET_SEPARATION - 2):  # the release and turnaround were the first
                 await self.step()
-            cycles += PACKET_SEPARATION
+            cycles += PACKET_SEPARATION - 2
         return Capture(packets, first_byte if first_byte is not None else -1)
 
     async def _tenure(self, speed: int) -> _Tenure:
@@ -342,10 +345,12 @@ class Phy:
         first_byte: int | None = None
         concatenate = False
         cycles = 2
+        driving = False
         for _ in range(OWN_LIMIT):
             mon = await step(False)
             cycles += 1
-            if not mon >> MON_OE & 1:
+            driving = bool(mon >> MON_OE & 1)
+            if not driving:
                 if phase == "take":
                     if cycles > GRANT_TIMEOUT:
                         break  # the link did not take the bus it asked for
@@ -412,6 +417,14 @@ class Phy:
             self._violate("ownership", f"the link kept the bus {OWN_LIMIT} cycles")
         if current is not None:
             packets.append(bytes(current))
+        if driving:
+            # The link lets go after its closing Idle, and neither side drives for
+            # one cycle (the turnaround) before the PHY does.
+            for _ in range(2):
+                mon = await step(False)
+                cycles += 1
+                if self.release_visible and mon >> MON_OE & 1:
+                    self._violate("release", "the link still drove CTL/D after its closing Idle")
         return _Tenure(packets, first_byte, concatenate and phase in ("end", "close"), cycles)
 
     async def exchange(self, raw: bytes, *, interrupting: int = 0) -> Reply:
