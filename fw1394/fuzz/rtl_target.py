@@ -55,6 +55,8 @@ class RtlTarget:
             "timeout": max(timeout, 10.0),
         }
         self._interface: list[str] = []
+        self._effects: list[list[tuple[str, int, int | None]]] = []
+        self._own = frozenset(portmap.own)
         self.sim = self._start()
 
     def _start(self) -> Simulation:
@@ -78,6 +80,10 @@ class RtlTarget:
         except SimulationError as error:
             raise TargetCrash(f"simulator-gone: {error}") from None
         self._interface += answer["violations"]
+        self._effects = [
+            [(kind, address, data) for kind, address, data in effects if address not in self._own]
+            for effects in answer.get("effects", [[] for _ in batch])
+        ]
         return [
             Observation(ack, None if response is None else bytes.fromhex(response), tenure)
             for ack, response, tenure in answer["replies"]
@@ -87,6 +93,15 @@ class RtlTarget:
         """Interface rules broken since the last call (one line each, signature first)."""
         found, self._interface = self._interface, []
         return found
+
+    def side_effects(self) -> list[list[tuple[str, int, int | None]]]:
+        """The register accesses (kind, index, data) each packet of the last batch
+        caused, the design's own registers left out."""
+        return self._effects
+
+    def owned(self) -> frozenset[int]:
+        """Registers (quadlet indices) the design writes by itself."""
+        return self._own
 
     def problem(self) -> str | None:
         if not self.sim.alive():

@@ -98,6 +98,7 @@ class Node:
         if phy.server is not None:
             phy.server.set_time(now)
         replies = []
+        effects = []
         for text in packets:
             reply = await phy.exchange(bytes.fromhex(text), interrupting=interrupting)
             replies.append(
@@ -107,8 +108,14 @@ class Node:
                     reply.concatenated,
                 ]
             )
+            effects.append([list(effect) for effect in reply.effects])
         violations, phy.violations = phy.violations, []
-        return {"replies": replies, "violations": violations, "cycles": phy.cycles}
+        return {
+            "replies": replies,
+            "effects": effects,
+            "violations": violations,
+            "cycles": phy.cycles,
+        }
 
 
 @cocotb.test()

@@ -26,6 +26,8 @@ from fw1394.rtl.portmap import (
     MON_BLK_WR,
     MON_BUSY,
     MON_CTL,
+    MON_FX_RD,
+    MON_FX_WR,
     MON_LREQ,
     MON_OE,
     MON_RD,
@@ -87,10 +89,20 @@ class _Tenure(NamedTuple):
     cycles: int
 
 
+class Effect(NamedTuple):
+    """A register access the design made: ``write`` or ``read``, its index and data."""
+
+    kind: str
+    address: int
+    data: int | None
+
+
 class Reply(NamedTuple):
     ack: int | None
     response: bytes | None
     concatenated: bool
+    #: The register accesses made while the packet was received and answered.
+    effects: list[Effect] = []
 
 
 class Phy:
@@ -120,6 +132,8 @@ class Phy:
         self.violations: list[str] = []
         self.requests: deque[Request] = deque()
         self.cycles = 0
+        #: Register accesses since the last packet came.
+        self.effects: list[Effect] = []
         self._drive = -1
         self._lreq_bits: list[int] | None = None
         self._lreq_need = 0
@@ -154,9 +168,18 @@ class Phy:
         self._lreq(mon >> MON_LREQ & 1)
         if mon >> MON_RD & 0xF and self.server is not None:
             self._serve(mon)
+        if mon >> MON_FX_WR & 3:
+            self._effect(mon)
         if self.poll_reads:
             self._poll()
         return mon
+
+    def _effect(self, mon: int) -> None:
+        address = _unsigned(self.dut.fx_addr.value)
+        if mon >> MON_FX_WR & 1:
+            self.effects.append(Effect("write", address, _unsigned(self.dut.fx_wdata.value)))
+        if mon >> MON_FX_RD & 1:
+            self.effects.append(Effect("read", address, None))
 
     def _poll(self) -> None:
         # Values change only at a new batch (the board's time) or with a write,
@@ -430,6 +453,7 @@ class Phy:
     async def exchange(self, raw: bytes, *, interrupting: int = 0) -> Reply:
         """Deliver ``raw`` and return the link's ack, response and tenure."""
         await self._service_outside()
+        self.effects = []
         if self.server is not None:
             self.server.new_packet()
             self.forget_read()
@@ -456,7 +480,7 @@ class Phy:
             waited += 1
             quiet = 0 if mon >> MON_LREQ & 1 else quiet + 1
         await self._settle()
-        return self._reply(captures)
+        return self._reply(captures)._replace(effects=self.effects)
 
     def _answered(self, captures: list[Capture]) -> bool:
         packets = [p for c in captures for p in c.packets]
@@ -511,3 +535,10 @@ class Phy:
 def _speed_of(request: Request) -> int:
     """The speed a bus request asks for (000 S100, 010 S200, 100 S400)."""
     return min(request.payload >> 1 & 3, S400)
+
+
+def _unsigned(value: Any) -> int:
+    """A signal's value, X and Z bits read as 0."""
+    if value.is_resolvable:
+        return int(value.to_unsigned())
+    return int("".join(c if c in "01" else "0" for c in str(value)) or "0", 2)
