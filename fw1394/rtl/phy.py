@@ -39,7 +39,6 @@ IDLE, STATUS, RECEIVE, GRANT = 0b00, 0b01, 0b10, 0b11
 HOLD, TRANSMIT = 0b01, 0b10
 #: Speeds by index (as ImmReq carries them, shifted right once): S100, S200, S400.
 S100, S200, S400 = 0, 1, 2
-SPEED_NAMES = ("S100", "S200", "S400")
 #: The speed code the PHY puts on D after data-on, D0 first.
 SPEED_CODES = (0x00, 0x40, 0x50)
 #: Bits carried per SCLK cycle at each speed (D0-D1, D0-D3, D0-D7).
@@ -58,10 +57,19 @@ REQUEST_BITS = {0: 4, 1: 4, 2: 4, 3: 4, 4: 5, 5: 13, 6: 2}
 BUS_REQUESTS = {0: "ImmReq", 1: "IsoReq", 2: "PriReq", 3: "FairReq"}
 #: A link granted the bus must start driving within this many cycles.
 GRANT_TIMEOUT = 8
-#: Cycles a link may stay busy after its answer (a 2 KiB write commit and more).
-BUSY_LIMIT = 20_000
-#: Cycles an owned bus may stay in use (the longest packet and then some).
-OWN_LIMIT = 80_000
+
+
+class Limits(NamedTuple):
+    """How long the PHY waits, in SCLK cycles (a port map's [phy] table)."""
+
+    #: From the end of a received packet to the ack's first byte, at most.
+    ack_gap: int = 32
+    #: A link may stay busy after its answer (a 2 KiB write commit and more).
+    busy: int = 20_000
+    #: An owned interface may stay in use (the longest packet and then some).
+    own: int = 80_000
+    #: One packet, from its delivery to the end of its answer, in all.
+    answer: int = 200_000
 
 
 class Request(NamedTuple):
@@ -113,14 +121,15 @@ class Phy:
         dut: Any,
         *,
         physical_id: int,
-        ack_gap: int,
+        limits: Limits,
         registers: RegisterServer | None,
         poll_reads: bool = False,
         release_visible: bool = True,
     ) -> None:
         self.dut = dut
         self.physical_id = physical_id
-        self.ack_gap = ack_gap
+        self.limits = limits
+        self.ack_gap = limits.ack_gap
         self.server = registers
         #: The pins show when the link lets go (not so with a PHY-drives flag).
         self.release_visible = release_visible
@@ -369,7 +378,7 @@ class Phy:
         concatenate = False
         cycles = 2
         driving = False
-        for _ in range(OWN_LIMIT):
+        for _ in range(self.limits.own):
             mon = await step(False)
             cycles += 1
             driving = bool(mon >> MON_OE & 1)
@@ -437,7 +446,7 @@ class Phy:
                 concatenate = ctl == HOLD
                 phase = "end"
         else:
-            self._violate("ownership", f"the link kept the bus {OWN_LIMIT} cycles")
+            self._violate("ownership", f"the link kept the bus {self.limits.own} cycles")
         if current is not None:
             packets.append(bytes(current))
         if driving:
@@ -450,20 +459,26 @@ class Phy:
                     self._violate("release", "the link still drove CTL/D after its closing Idle")
         return _Tenure(packets, first_byte, concatenate and phase in ("end", "close"), cycles)
 
-    async def exchange(self, raw: bytes, *, interrupting: int = 0) -> Reply:
-        """Deliver ``raw`` and return the link's ack, response and tenure."""
+    async def exchange(self, raw: bytes, *, interrupting: int = 0, speed: int = S400) -> Reply:
+        """Deliver ``raw`` at ``speed`` and return the link's ack, response and tenure."""
+        start = self.cycles
         await self._service_outside()
         self.effects = []
         if self.server is not None:
             self.server.new_packet()
             self.forget_read()
-        await self.receive(raw, interrupting=interrupting)
+        await self.receive(raw, interrupting=interrupting, speed=speed)
         captures: list[Capture] = []
         # A request that starts after the ack gap cannot bring an ack inside it:
         # so much quiet on LREQ is silence.
         quiet = 0
         waited = 1  # the Idle that ended the packet
         while quiet < self.ack_gap or self.lreq_busy:
+            if self.cycles - start > self.limits.answer:
+                self._violate(
+                    "timeout", f"no end to the answer {self.limits.answer} cycles after the packet"
+                )
+                break
             if self.requests:
                 request = self.requests[0]
                 if request.kind in BUS_REQUESTS:
@@ -490,13 +505,13 @@ class Phy:
         return len(ack) != 1 or ack[0] >> 4 != 0x2 or len(packets) > 1
 
     async def _settle(self) -> None:
-        for _ in range(BUSY_LIMIT):
+        for _ in range(self.limits.busy):
             mon = await self.step()
             if not mon >> MON_BUSY & 1 and not self.lreq_busy and not self.requests:
                 return
             if self.requests:
                 await self._service_outside()
-        self._violate("busy", f"the link stayed busy {BUSY_LIMIT} cycles after its answer")
+        self._violate("busy", f"the link stayed busy {self.limits.busy} cycles after its answer")
 
     async def _service_outside(self) -> None:
         # Between answers the link has nothing to send: a packet now is an ack that

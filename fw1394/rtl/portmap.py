@@ -20,6 +20,8 @@ from typing import Any
 from fw1394.boards.registry import BOARDS
 
 STYLES = ("inout", "split-oe", "split-flag")
+#: Packet speeds by index (as ImmReq carries them, shifted right once).
+SPEED_NAMES = ("S100", "S200", "S400")
 ORDERS = ("msb", "lsb")
 #: The register bus signals a design may expose, and their widths (addr: 1..16 bits).
 REGISTER_SIGNALS = ("addr", "len", "rd", "blk_rd", "wr", "blk_wr", "wdata", "rdata")
@@ -28,6 +30,13 @@ _REQUIRED_REGISTER_SIGNALS = ("addr", "rdata", "wr", "wdata")
 #: ``wr``/``rd`` (each one signal or a list, any of them high is an access),
 #: ``addr`` and ``wdata`` (read when a strobe is seen).
 EFFECT_SIGNALS = ("wr", "rd", "addr", "wdata")
+#: The [phy] keys: (default, least value), all in SCLK cycles.
+PHY_LIMITS = {
+    "ack_gap": (32, 4),
+    "busy_cycles": (20_000, 100),
+    "own_cycles": (80_000, 100),
+    "answer_cycles": (200_000, 1_000),
+}
 HDL_DIR = Path(__file__).parent / "hdl"
 PORTMAP_DIR = Path(__file__).parent / "portmaps"
 
@@ -65,6 +74,11 @@ class PortMap:
     parameters: dict[str, int] = field(default_factory=dict)
     #: Cycles from the end of a received packet to the ack's first byte, at most.
     ack_gap: int = 32
+    #: Limits in SCLK cycles ([phy] table): how long the link may stay busy after an
+    #: answer, keep the interface in one ownership, and take over one packet in all.
+    busy_cycles: int = 20_000
+    own_cycles: int = 80_000
+    answer_cycles: int = 200_000
     #: Signals (paths below the design's top) that show its own register accesses,
     #: by role (see :data:`EFFECT_SIGNALS`); a served bus shows them by itself.
     effects: dict[str, tuple[str, ...]] = field(default_factory=dict)
@@ -177,9 +191,18 @@ def parse(data: dict[str, Any], path: Path) -> PortMap:
         isinstance(i, int) and 0 <= i < 1 << width for i in own
     ):
         raise PortMapError(f"{where}: [registers] own must list register indices (integers)")
-    gap = data.get("phy", {}).get("ack_gap", 32)
-    if not isinstance(gap, int) or gap < 4:
-        raise PortMapError(f"{where}: [phy] ack_gap must be an integer >= 4")
+    phy = data.get("phy", {})
+    if not isinstance(phy, dict):
+        raise PortMapError(f"{where}: [phy] must be a table")
+    unknown = set(phy) - set(PHY_LIMITS)
+    if unknown:
+        raise PortMapError(f"{where}: unknown key {sorted(unknown)[0]!r} in [phy]")
+    limits = {}
+    for key, (default, least) in PHY_LIMITS.items():
+        value = phy.get(key, default)
+        if not isinstance(value, int) or isinstance(value, bool) or value < least:
+            raise PortMapError(f"{where}: [phy] {key} must be an integer >= {least}")
+        limits[key] = value
     return PortMap(
         path=path,
         top=top,
@@ -198,7 +221,7 @@ def parse(data: dict[str, Any], path: Path) -> PortMap:
         model=model,
         defines=defines,
         parameters=dict(parameters),
-        ack_gap=gap,
+        **limits,
         effects=effects,
         own=tuple(own),
     )

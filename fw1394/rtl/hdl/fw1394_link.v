@@ -15,6 +15,10 @@
 // Bit conventions inside: ctl[1] is CTL0 and ctl[0] CTL1, so 2'b10 is
 // Receive/Transmit; d[7] is D0, so bytes are in their natural order.
 //
+// Speeds: a packet comes at S100 (two bits a cycle on D0-D1), S200 (four on
+// D0-D3) or S400 (a byte), as its speed code says; the ack and the response go
+// out at the same speed, asked for in the ImmReq.
+//
 // Planted defects (for fuzzing the fuzzer), each a `define:
 //   FW1394_DEFECT_NO_HEADER_CRC   the header CRC is never compared
 //   FW1394_DEFECT_ANY_NODE        every destination is taken as this node
@@ -38,7 +42,7 @@ module fw1394_link #(
     output reg  [1:0]  ctl_o,
     output reg         ctl_oe,
     input  wire [7:0]  d_i,
-    output reg  [7:0]  d_o,
+    output wire [7:0]  d_o,
     output reg         d_oe,
     output reg         lreq,
     output reg  [5:0]  phy_id,
@@ -89,7 +93,16 @@ module fw1394_link #(
     reg [3:0]  st_n;
     reg        need_id;
 
-    wire [7:0]  b = d_i;
+    // Receive speed (0 S100, 1 S200, 2 S400) and the symbols of the byte under way.
+    localparam [1:0] SP100 = 2'd0, SP200 = 2'd1, SP400 = 2'd2;
+    reg [1:0]  rx_speed;
+    reg [5:0]  rx_acc;
+    reg [1:0]  rx_sym;
+    wire       rx_last_sym = rx_speed == SP400 || (rx_speed == SP200 && rx_sym == 2'd1)
+                          || (rx_speed == SP100 && rx_sym == 2'd3);
+    wire [7:0] rx_byte = rx_speed == SP400 ? d_i
+                       : rx_speed == SP200 ? {rx_acc[3:0], d_i[7:4]} : {rx_acc, d_i[7:6]};
+    wire [7:0]  b = rx_state == RX_BYTES ? rx_byte : d_i;
     wire [31:0] q = {sh, b};
     wire [15:0] bq = bcnt[17:2];
     wire [15:0] ndq = (len + 16'd3) >> 2;
@@ -158,9 +171,21 @@ module fw1394_link #(
     reg [15:0] cm_k, cm_n, cm_index, cm_len;
     reg [31:0] cm_qdata;
 
+    // Transmit speed, and the symbol of tx_byte on D this cycle (S100, S200).
+    reg [7:0]  tx_byte;       // the byte being sent
+    reg [1:0]  tx_speed;
+    reg [1:0]  tx_sym;
+    wire       tx_serial = tx_speed != SP400 && ctl_o == CTL_DATA
+                        && (tx_state == TX_ACK || tx_state == TX_PKT);
+    wire       tx_last_sym = !tx_serial || (tx_speed == SP200 ? tx_sym == 2'd1 : tx_sym == 2'd3);
+    wire [7:0] tx_s100 = tx_byte << {tx_sym, 1'b0};
+    wire [7:0] tx_s200 = tx_byte << {tx_sym[0], 2'b00};
+    assign d_o = !tx_serial ? tx_byte
+               : tx_speed == SP200 ? {tx_s200[7:4], 4'h0} : {tx_s100[7:6], 6'h0};
+
     assign busy = cm_active || tx_state != TX_IDLE || rx_state == RX_DECIDE;
 
-    wire [31:0] crc_now = crc32_byte(tx_crc, d_o);
+    wire [31:0] crc_now = crc32_byte(tx_crc, tx_byte);
     wire [15:0] last_q = tx_block ? 16'd5 + resp_ndq : 16'd4;
     wire [15:0] node_id = {BUS_ID, phy_id};
     wire        crc_quadlet = tx_qi == 16'd4 || tx_qi == last_q;
@@ -206,6 +231,10 @@ module fw1394_link #(
             rx_state <= RX_IDLE;
             tx_state <= TX_IDLE;
             second <= 1'b0;
+            tx_speed <= SP400;
+            tx_sym <= 2'd0;
+            rx_speed <= SP400;
+            rx_sym <= 2'd0;
             phy_id <= 6'd0;
             phy_id_valid <= 1'b0;
             need_id <= 1'b1;
@@ -219,7 +248,7 @@ module fw1394_link #(
             st_n <= 4'd0;
             ctl_o <= CTL_IDLE;
             ctl_oe <= 1'b0;
-            d_o <= 8'h00;
+            tx_byte <= 8'h00;
             d_oe <= 1'b0;
         end else begin
             reg_rd <= 1'b0;
@@ -260,6 +289,9 @@ module fw1394_link #(
                         if (ctl_i != CTL_DATA) rx_state <= RX_IDLE;   // a null packet
                         else if (b != 8'hFF) begin                   // the speed code
                             rx_state <= RX_BYTES;
+                            rx_speed <= b[7:6] == 2'b00 ? SP100 : b[7:4] == 4'b0100 ? SP200
+                                                                                   : SP400;
+                            rx_sym <= 2'd0;
                             bcnt <= 18'd0;
                             hcrc <= 32'hFFFFFFFF;
                             dcrc <= 32'hFFFFFFFF;
@@ -271,7 +303,13 @@ module fw1394_link #(
                     end
                     RX_BYTES: begin
                         if (ctl_i != CTL_DATA) rx_state <= RX_DECIDE;
-                        else begin
+                        else if (!rx_last_sym) begin
+                            // One more symbol of the byte (S100, S200).
+                            rx_acc <= rx_speed == SP200 ? {2'b00, d_i[7:4]}
+                                                        : {rx_acc[3:0], d_i[7:6]};
+                            rx_sym <= rx_sym + 2'd1;
+                        end else begin
+                            rx_sym <= 2'd0;
                             if (bcnt != 18'h3FFFF) bcnt <= bcnt + 18'd1;
                             sh <= q[23:0];
                             if (in_hdr) hcrc <= crc32_byte(hcrc, b);
@@ -315,8 +353,9 @@ module fw1394_link #(
                             if (!broadcast) begin
                                 tx_state <= TX_LREQ;
                                 lreq_imm <= 1'b1;
-                                // ImmReq at S400: start, 000, 100, stop.
-                                lreq_sh <= {8'b1000_1000, 9'h0};
+                                // ImmReq at the packet's speed: start, 000, speed, stop.
+                                lreq_sh <= {4'b1000, rx_speed, 2'b00, 9'h0};
+                                tx_speed <= rx_speed;
                                 lreq_n <= 5'd8;
                                 respond <= !is_write;
                                 ack_code <= !is_write ? ACK_PENDING
@@ -349,6 +388,9 @@ module fw1394_link #(
             end
 
             // ------------------------------------------------ transmit
+            if (!tx_last_sym) tx_sym <= tx_sym + 2'd1;   // the byte's next symbol
+            else begin
+            tx_sym <= 2'd0;
             case (tx_state)
                 TX_LREQ: begin
                     lreq <= lreq_sh[16];
@@ -368,16 +410,16 @@ module fw1394_link #(
                         // Granted again: Hold while the response is set up, then send it.
                         tx_state <= TX_HOLD;
                         ctl_o <= CTL_HOLD;
-                        d_o <= 8'h00;
+                        tx_byte <= 8'h00;
                         hold_n <= 7'd0;
                     end else begin
                         tx_state <= TX_ACK;
                         ctl_o <= CTL_DATA;
-                        d_o <= {ack_code, ~ack_code};
+                        tx_byte <= {ack_code, ~ack_code};
                     end
                 end
                 TX_ACK: begin
-                    d_o <= 8'h00;
+                    tx_byte <= 8'h00;
                     if (respond) begin
                         // Hold ends the ack: a concatenation request. The first data
                         // quadlet is read meanwhile.
@@ -420,18 +462,18 @@ module fw1394_link #(
                         tx_state <= TX_PKT;
                         ctl_o <= CTL_DATA;
                         tx_q <= {resp_dest, resp_tl, 2'b00, resp_tcode, 4'h0};
-                        d_o <= resp_dest[15:8];
+                        tx_byte <= resp_dest[15:8];
                         tx_b <= 2'd0;
                         tx_qi <= 16'd0;
                         tx_crc <= 32'hFFFFFFFF;
                     end
                 end
                 TX_PKT: begin
-                    // d_o is on the wire this cycle; tx_q holds it and the bytes after it.
+                    // tx_byte is on the wire this cycle; tx_q holds it and the bytes after it.
                     if (!crc_quadlet) tx_crc <= crc_now;
                     if (tx_b != 2'd3) begin
                         tx_q <= {tx_q[23:0], 8'h00};
-                        d_o <= tx_q[23:16];
+                        tx_byte <= tx_q[23:16];
                         tx_b <= tx_b + 2'd1;
                         // Data quadlet k (k >= 1) is read while quadlet 4 + k goes out.
                         if (tx_b == 2'd0 && tx_block && tx_qi >= 16'd5
@@ -445,10 +487,10 @@ module fw1394_link #(
                         respond <= 1'b0;
                         second <= 1'b0;
                         ctl_o <= CTL_IDLE;
-                        d_o <= 8'h00;
+                        tx_byte <= 8'h00;
                     end else begin
                         tx_q <= next_quadlet(tx_qi + 16'd1);
-                        d_o <= next_quadlet(tx_qi + 16'd1) >> 24;
+                        tx_byte <= next_quadlet(tx_qi + 16'd1) >> 24;
                         tx_b <= 2'd0;
                         tx_qi <= tx_qi + 16'd1;
                         // The data CRC starts after the header CRC.
@@ -463,6 +505,7 @@ module fw1394_link #(
                 end
                 default: ;
             endcase
+            end
 
             // ------------------------------------------------ write commit
             if (cm_active) begin
