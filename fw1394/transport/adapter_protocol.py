@@ -47,6 +47,14 @@ class Op(IntEnum):
     write = 2
     lock = 3
     send = 4
+    # The adapter's own node and its bus (fw1394.transport.adapter_services).
+    watch = 5
+    listen = 6
+    unlisten = 7
+    respond = 8
+    cycle_time = 9
+    config_rom = 10
+    reset = 11
 
 
 class Status(IntEnum):
