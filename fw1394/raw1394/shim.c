@@ -38,9 +38,11 @@
 #define MAX_MESSAGE (1u << 17)
 
 /* Adapter protocol operations (fw1394.transport.adapter_protocol.Op). */
-enum op { OP_INFO, OP_READ, OP_WRITE, OP_LOCK, OP_SEND, OP_WATCH, OP_LISTEN,
+enum op { OP_INFO, OP_READ, OP_WRITE, OP_LOCK, OP_SEND, OP_HELLO, OP_WATCH, OP_LISTEN,
 	  OP_UNLISTEN, OP_RESPOND, OP_CYCLE_TIME, OP_CONFIG_ROM, OP_RESET };
-enum status { ST_OK, ST_FAILED, ST_REFUSED };
+enum status { ST_OK, ST_FAILED, ST_REFUSED, ST_STALE };
+/* The protocol version this library speaks. */
+#define PROTOCOL_VERSION 2
 
 /* Internal error codes (negative errcodes), as the raw1394 kernel interface numbered them. */
 #define ERR_GENERATION (-1001)
@@ -154,6 +156,7 @@ static uint64_t get64(const unsigned char *p) { return (uint64_t)get32(p) << 32 
 
 struct request {
 	int op, node, extended_tcode, quadlet;
+	uint32_t generation;
 	uint64_t offset;
 	uint32_t length;
 	const void *argument, *data;
@@ -178,7 +181,7 @@ static int write_all(int fd, const unsigned char *p, size_t n)
 /* Send a request; its number, or 0 (errno set). */
 static uint32_t put_request(raw1394handle_t h, const struct request *r)
 {
-	size_t head = 4 + 1 + 1 + 2 + 8 + 4 + 1 + 4;
+	size_t head = 4 + 1 + 1 + 2 + 4 + 8 + 4 + 1 + 4;
 	size_t body = head + 4 + r->argument_length + 4 + r->data_length;
 	unsigned char *m, *p;
 	uint32_t number;
@@ -204,6 +207,7 @@ static uint32_t put_request(raw1394handle_t h, const struct request *r)
 	*p++ = r->op;
 	*p++ = r->node;
 	put16(p, r->extended_tcode); p += 2;
+	put32(p, r->generation); p += 4;
 	put64(p, r->offset); p += 8;
 	put32(p, r->length); p += 4;
 	*p++ = r->quadlet;
@@ -299,6 +303,8 @@ static raw1394_errcode_t errcode_of(const struct reply *r, int op)
 		return raw1394_make_errcode(op == OP_WRITE ? ACK_COMPLETE : ACK_PENDING, 0);
 	if (r->status == ST_REFUSED)
 		return ERR_REFUSED;
+	if (r->status == ST_STALE)
+		return ERR_GENERATION;
 	if (r->rcode >= 0)
 		return raw1394_make_errcode(ACK_PENDING, r->rcode);
 	for (i = 0; i < sizeof reasons / sizeof *reasons; i++)
@@ -791,6 +797,22 @@ static int connect_to(const char *path)
 	return fd;
 }
 
+/* Agree on the protocol version: the first request of every connection. */
+static int hello(raw1394handle_t h)
+{
+	unsigned char versions[4];
+	struct request q = { .op = OP_HELLO, .data = versions, .data_length = sizeof versions };
+
+	put16(versions, PROTOCOL_VERSION);
+	put16(versions + 2, PROTOCOL_VERSION);
+	if (call(h, &q, NULL, NULL, NULL) < 0) {
+		fprintf(stderr, "libraw1394 (fw1394): the bus's adapter does not speak protocol "
+				"version %d (EPROTO)\n", PROTOCOL_VERSION);
+		return fail(EPROTO);
+	}
+	return 0;
+}
+
 /* Nodes on the bus behind ``path`` (its member table), or -1. */
 static int count_nodes(raw1394handle_t h, const char *path)
 {
@@ -806,7 +828,7 @@ static int count_nodes(raw1394handle_t h, const char *path)
 	probe.tag_handler = h->tag_handler;
 	if (probe.sock < 0)
 		return -1;
-	if (call(&probe, &q, &data, &n, NULL) == 0 && n >= 8)
+	if (hello(&probe) == 0 && call(&probe, &q, &data, &n, NULL) == 0 && n >= 8)
 		nodes = get16(data + 4);
 	free(data);
 	free(probe.in);
@@ -869,6 +891,8 @@ int raw1394_set_port(raw1394handle_t handle, int port)
 		return fail(ESTALE);
 	event.data.fd = handle->sock;
 	if (epoll_ctl(handle->epoll, EPOLL_CTL_ADD, handle->sock, &event) < 0)
+		return -1;
+	if (hello(handle) < 0)
 		return -1;
 	/* The first bus state is the watch request's reply; later ones are pushes. */
 	number = put_request(handle, &q);
@@ -1079,6 +1103,7 @@ static int start(raw1394handle_t h, struct request *q, enum kind kind, void *res
 	struct pending *p;
 
 	q->node &= 0x3F;
+	q->generation = h->generation;
 	number = put_request(h, q);
 	if (!number)
 		return -1;

@@ -104,6 +104,7 @@ class NodeServices:
         if op in (Op.read, Op.write, Op.lock):
             if request.node != self.adapter.host.phy_id:
                 return False
+            self.adapter.host.on_bus()  # raises if the request's generation has ended
             self._own_node(client, request)
             return True
         reply = Reply(request.request, Status.ok)

@@ -17,6 +17,8 @@ never meets a stale generation.
 from __future__ import annotations
 
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Self
 
 from fw1394.engine import Event, FailureReason, Requester, TransactionEvent, TransactionFailed
@@ -60,6 +62,21 @@ class TransactionError(RuntimeError):
         if failure.detail and failure.detail != text:
             text += f": {failure.detail}"
         super().__init__(text)
+
+
+class StaleGenerationError(TransactionError):
+    """A request addressed in a bus generation that has ended: it was never sent.
+
+    Physical IDs are renumbered at every bus reset, so the node a request named
+    may be another node now (Linux's firewire-cdev fails such a request with
+    ``EAGAIN``). Its reason is ``bus_reset``; ``addressed`` and ``current`` are
+    the two generations.
+    """
+
+    def __init__(self, addressed: int, current: int) -> None:
+        self.addressed, self.current = addressed, current
+        detail = f"addressed in generation {addressed}, the bus is in {current}: not sent"
+        super().__init__(TransactionFailed(0, FailureReason.bus_reset, detail=detail))
 
 
 class BusHost:
@@ -109,6 +126,8 @@ class BusHost:
         self._served_at = time.monotonic()
         self._paused_after = self.station.membership.timing.heartbeat
         self.resets: list[BusReset] = []
+        #: The generation requests started now are pinned to (None: the current one).
+        self._addressed_in: int | None = None
 
     # -- context manager ----------------------------------------------------------------
     def __enter__(self) -> Self:
@@ -167,6 +186,20 @@ class BusHost:
             self._pump()
 
     # -- transactions (non-blocking starts) ----------------------------------------------
+    @contextmanager
+    def addressed_in(self, generation: int | None) -> Iterator[None]:
+        """Requests started inside are pinned to bus ``generation`` (None: not pinned).
+
+        One whose generation has ended by the time it would go out raises
+        :class:`StaleGenerationError` and is not sent: its physical ID may name
+        another node now.
+        """
+        outer, self._addressed_in = self._addressed_in, generation
+        try:
+            yield
+        finally:
+            self._addressed_in = outer
+
     def start_read_quadlet(self, node: int, offset: int) -> int:
         tid = self.requester.read_quadlet(resolve(node), offset, self.on_bus())
         self._flush_requests()
@@ -229,12 +262,23 @@ class BusHost:
 
     # -- the loop -----------------------------------------------------------------------
     def on_bus(self) -> float:
-        """Make sure this host is on the bus and ready; the time it was sure of it."""
+        """Make sure this host is on the bus and ready; the time it was sure of it.
+
+        Every request is started right after this: it raises
+        :class:`StaleGenerationError` if the request is pinned to a generation
+        (:meth:`addressed_in`) the bus has left.
+        """
         now = self._back_if_away()
-        if self.station.membership.ready:
-            return now
-        self.wait_ready()
-        return time.monotonic()
+        station = self.station
+        if not station.membership.ready:
+            self.wait_ready()
+            now = time.monotonic()
+        if self.requester.generation != station.generation:
+            self.link.apply_changes()  # the engine learns of a reset before it sends
+        pinned = self._addressed_in
+        if pinned is not None and pinned != station.generation:
+            raise StaleGenerationError(pinned, station.generation)
+        return now
 
     def _back_if_away(self) -> float:
         """Catch up with the bus if this host has been away from it; now."""
