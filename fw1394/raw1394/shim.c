@@ -545,14 +545,22 @@ static int dispatch(raw1394handle_t h, const struct reply *r)
 	}
 }
 
-/* Complete messages waiting in the buffer make the pollable fd readable. */
-static void signal_buffered(raw1394handle_t h)
+/* The pollable fd is readable exactly while loop_iterate has something to do without
+ * waiting: a message from the adapter, or one already buffered, an echo or a wake-up. */
+static void signal_pending(raw1394handle_t h)
 {
-	uint64_t one = 1;
+	uint64_t count;
+	int buffered = h->in_length >= 4 && h->in_length >= 4 + get32(h->in);
 
-	if (h->in_length >= 4 && h->in_length >= 4 + get32(h->in))
-		if (write(h->event, &one, sizeof one) < 0)
+	if (h->event < 0)
+		return;
+	while (read(h->event, &count, sizeof count) > 0)
+		;
+	if (buffered || h->echo_count || h->woken) {
+		count = 1;
+		if (write(h->event, &count, sizeof count) < 0)
 			return;
+	}
 }
 
 /*
@@ -565,10 +573,12 @@ static int iterate(raw1394handle_t h, int user)
 		if (user && h->echo_count) {
 			quadlet_t value = h->echoes[0];
 			memmove(h->echoes, h->echoes + 1, --h->echo_count * sizeof *h->echoes);
+			signal_pending(h);
 			return (int)value;
 		}
 		if (user && h->woken) {
 			h->woken = 0;
+			signal_pending(h);
 			return 0;
 		}
 		if (h->in_length >= 4) {
@@ -591,7 +601,7 @@ static int iterate(raw1394handle_t h, int user)
 				}
 				result = dispatch(h, &r);
 				free(body);
-				signal_buffered(h);
+				signal_pending(h);
 				return result;
 			}
 		}

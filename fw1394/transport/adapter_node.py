@@ -282,7 +282,7 @@ class LocalNode:
         return Answer(RCode.resp_address_error), []
 
     def _fcp(self, incoming: Incoming) -> tuple[Answer, list[Push]]:
-        if incoming.tcode != TCode.write_block_request:
+        if incoming.tcode not in _WRITES:
             return Answer(RCode.resp_type_error), []
         pushes = [
             Push(x.owner, x.number, incoming.pack(0))
