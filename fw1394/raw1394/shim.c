@@ -551,6 +551,7 @@ static void signal_pending(raw1394handle_t h)
 {
 	uint64_t count;
 	int buffered = h->in_length >= 4 && h->in_length >= 4 + get32(h->in);
+	int saved = errno; /* a call that succeeds leaves errno as it found it */
 
 	if (h->event < 0)
 		return;
@@ -559,8 +560,9 @@ static void signal_pending(raw1394handle_t h)
 	if (buffered || h->echo_count || h->woken) {
 		count = 1;
 		if (write(h->event, &count, sizeof count) < 0)
-			return;
+			count = 0;
 	}
+	errno = saved;
 }
 
 /*
