@@ -21,7 +21,7 @@ RUN_EPILOG = """\
 examples:
   fw1394 bus up --name rig --nodes 2 --board qla1
   fw1394 run --name rig -- testlibraw
-  fw1394 run --name rig -- dumpiso        (isochronous calls fail with ENOSYS)
+  fw1394 run --name rig -- dumpiso -c 5 dump.iso
 
 The program sees bus RIG as port 0 (other buses of this user follow); its
 local node is the bus's host adapter. Set FW1394_BUS and FW1394_ADAPTER and

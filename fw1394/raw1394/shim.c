@@ -39,7 +39,8 @@
 
 /* Adapter protocol operations (fw1394.transport.adapter_protocol.Op). */
 enum op { OP_INFO, OP_READ, OP_WRITE, OP_LOCK, OP_SEND, OP_HELLO, OP_WATCH, OP_LISTEN,
-	  OP_UNLISTEN, OP_RESPOND, OP_CYCLE_TIME, OP_CONFIG_ROM, OP_RESET };
+	  OP_UNLISTEN, OP_RESPOND, OP_CYCLE_TIME, OP_CONFIG_ROM, OP_RESET, OP_ISO_SEND,
+	  OP_ISO_LISTEN };
 enum status { ST_OK, ST_FAILED, ST_REFUSED, ST_STALE };
 /* The protocol version this library speaks. */
 #define PROTOCOL_VERSION 2
@@ -53,6 +54,22 @@ enum status { ST_OK, ST_FAILED, ST_REFUSED, ST_STALE };
 
 #define ACK_COMPLETE 1
 #define ACK_PENDING 2
+/* One stream packet per channel per 125 us cycle, as on a 1394 bus. */
+#define CYCLE_NS 125000L
+
+enum iso_mode { ISO_OFF, ISO_XMIT, ISO_RECV };
+
+struct iso {
+	enum iso_mode mode;
+	int started;
+	raw1394_iso_xmit_handler_t xmit;
+	raw1394_iso_recv_handler_t recv;
+	unsigned int channel, max_packet;
+	uint64_t mask;
+	uint32_t listen;	/* the iso_listen request whose pushes are packets */
+	struct timespec next;	/* when the next packet may go out */
+	unsigned char *packet;	/* xmit handler's buffer */
+};
 
 /* How an outstanding request ends. */
 enum kind { K_TAG, K_WAIT, K_DISCARD };
@@ -121,6 +138,7 @@ struct raw1394_handle {
 	size_t echo_count;
 	int woken;
 	int broken;	/* the connection failed: waits end */
+	struct iso iso;
 };
 
 static void say_once(int *said, const char *what)
@@ -163,14 +181,26 @@ struct request {
 	size_t argument_length, data_length;
 };
 
-static int write_all(int fd, const unsigned char *p, size_t n)
+static void take_waiting(raw1394handle_t h);
+
+/* Send all of ``p``. While the adapter cannot take more, take what it sends (unhandled):
+ * it may be waiting to send before it reads again. */
+static int write_all(raw1394handle_t h, const unsigned char *p, size_t n)
 {
 	while (n) {
-		ssize_t done = send(fd, p, n, MSG_NOSIGNAL);
+		ssize_t done = send(h->sock, p, n, MSG_NOSIGNAL | MSG_DONTWAIT);
 		if (done < 0) {
+			struct pollfd pfd = { h->sock, POLLIN | POLLOUT, 0 };
+
 			if (errno == EINTR)
 				continue;
-			return -1;
+			if (errno != EAGAIN && errno != EWOULDBLOCK)
+				return -1;
+			if (poll(&pfd, 1, -1) < 0 && errno != EINTR)
+				return -1;
+			if (pfd.revents & POLLIN)
+				take_waiting(h);
+			continue;
 		}
 		p += done;
 		n -= done;
@@ -219,7 +249,7 @@ static uint32_t put_request(raw1394handle_t h, const struct request *r)
 	put32(p, r->data_length); p += 4;
 	if (r->data_length)
 		memcpy(p, r->data, r->data_length);
-	result = write_all(h->sock, m, 4 + body);
+	result = write_all(h, m, 4 + body);
 	free(m);
 	return result < 0 ? 0 : number;
 }
@@ -498,6 +528,24 @@ static int arm_event(raw1394handle_t h, struct arm *arm, const struct reply *r)
 	return result;
 }
 
+static void iso_stop_receiving(raw1394handle_t h);
+
+/* A stream packet on a channel this handle listens to. */
+static int iso_event(raw1394handle_t h, const struct reply *r)
+{
+	enum raw1394_iso_disposition disposition;
+
+	if (r->data_length < 6 || !h->iso.recv || !h->iso.started)
+		return 0;
+	disposition = h->iso.recv(h, (unsigned char *)r->data + 6, r->data_length - 6,
+				  r->data[0], r->data[1], r->data[2], get16(r->data + 4), 0);
+	if (disposition == RAW1394_ISO_ERROR)
+		return -1;
+	if (disposition == RAW1394_ISO_STOP)
+		iso_stop_receiving(h);
+	return 0;
+}
+
 /* One message from the adapter: whatever it ends or announces. */
 static int dispatch(raw1394handle_t h, const struct reply *r)
 {
@@ -508,6 +556,8 @@ static int dispatch(raw1394handle_t h, const struct reply *r)
 		return bus_state(h, r);
 	if (r->request == h->fcp && h->fcp)
 		return fcp_event(h, r);
+	if (r->request == h->iso.listen && h->iso.listen)
+		return iso_event(h, r);
 	for (arm = h->arms; arm; arm = arm->next)
 		if (arm->number == r->request && r->status == ST_OK && r->data_length >= 24)
 			return arm_event(h, arm, r);
@@ -557,13 +607,15 @@ static void signal_pending(raw1394handle_t h)
 		return;
 	while (read(h->event, &count, sizeof count) > 0)
 		;
-	if (buffered || h->echo_count || h->woken) {
+	if (buffered || h->echo_count || h->woken || (h->iso.started && h->iso.xmit)) {
 		count = 1;
 		if (write(h->event, &count, sizeof count) < 0)
 			count = 0;
 	}
 	errno = saved;
 }
+
+static int iso_pump(raw1394handle_t h);
 
 /*
  * Handle one message (waiting for it if need be). ``user``: also return echoes
@@ -583,6 +635,8 @@ static int iterate(raw1394handle_t h, int user)
 			signal_pending(h);
 			return 0;
 		}
+		if (user && h->iso.started && h->iso.xmit)
+			return iso_pump(h);
 		if (h->in_length >= 4) {
 			uint32_t size = get32(h->in);
 			struct reply r;
@@ -751,7 +805,8 @@ static int add_port(raw1394handle_t h, const char *name, const char *path)
 	for (i = 0; i < h->port_count; i++)
 		if (!strcmp(h->ports[i].path, path))
 			return 0;
-	snprintf(h->ports[h->port_count].name, sizeof h->ports[0].name, "%s", name);
+	if (snprintf(h->ports[h->port_count].name, sizeof h->ports[0].name, "%s", name) < 0)
+		return 0;
 	snprintf(h->ports[h->port_count].path, sizeof h->ports[0].path, "%s", path);
 	h->port_count++;
 	return 1;
@@ -784,7 +839,9 @@ static void find_ports(raw1394handle_t h)
 
 		if (entry->d_name[0] == '.')
 			continue;
-		snprintf(path, sizeof path, "%s/%s/adapter.sock", root, entry->d_name);
+		if (snprintf(path, sizeof path, "%s/%s/adapter.sock", root, entry->d_name) >=
+		    (int)sizeof path)
+			continue;
 		if (stat(path, &st) == 0 && S_ISSOCK(st.st_mode))
 			add_port(h, entry->d_name, path);
 	}
@@ -867,6 +924,14 @@ static void drop_connection(raw1394handle_t h)
 	struct arm *arm;
 
 	if (h->sock >= 0) {
+		/* Closing with replies unread would make the adapter lose the requests it has
+		 * not read yet: say we are done, and read until it has seen that (at most 2 s). */
+		struct pollfd pfd = { h->sock, POLLIN, 0 };
+		unsigned char sink[4096];
+
+		shutdown(h->sock, SHUT_WR);
+		while (poll(&pfd, 1, 2000) > 0 && recv(h->sock, sink, sizeof sink, 0) > 0)
+			;
 		epoll_ctl(h->epoll, EPOLL_CTL_DEL, h->sock, NULL);
 		close(h->sock);
 	}
@@ -922,6 +987,8 @@ int raw1394_set_port(raw1394handle_t handle, int port)
 	free(p->data);
 	free(p);
 	handle->watch = number;
+	/* dumpiso and sendiso read errno after a successful set_port. */
+	errno = 0;
 	return 0;
 }
 
@@ -1003,6 +1070,7 @@ void raw1394_destroy_handle(raw1394handle_t handle)
 {
 	if (!handle)
 		return;
+	raw1394_iso_shutdown(handle);
 	drop_connection(handle);
 	close(handle->epoll);
 	close(handle->event);
@@ -1455,13 +1523,7 @@ int raw1394_read_cycle_timer_and_clock(raw1394handle_t handle, u_int32_t *cycle_
 
 /* ---- what the virtual bus does not carry ----------------------------------------------- */
 
-static int said_iso, said_raw, said_rom, said_resources;
-
-static int no_iso(void)
-{
-	say_once(&said_iso, "isochronous transfers are not carried by the virtual bus (ENOSYS)");
-	return fail(ENOSYS);
-}
+static int said_raw, said_rom, said_resources;
 
 static int no_raw(void)
 {
@@ -1545,13 +1607,143 @@ int raw1394_async_send(raw1394handle_t handle, size_t length, size_t header_leng
 	return raw1394_start_async_send(handle, length, header_length, expect_response, data, 0);
 }
 
+/* Wait for the next cycle: a channel carries one packet per cycle. */
+static void iso_pace(raw1394handle_t h)
+{
+	struct timespec now;
+
+	clock_gettime(CLOCK_MONOTONIC, &now);
+	if (now.tv_sec < h->iso.next.tv_sec ||
+	    (now.tv_sec == h->iso.next.tv_sec && now.tv_nsec < h->iso.next.tv_nsec))
+		clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &h->iso.next, NULL);
+	else
+		h->iso.next = now;
+	h->iso.next.tv_nsec += CYCLE_NS;
+	if (h->iso.next.tv_nsec >= 1000000000L) {
+		h->iso.next.tv_nsec -= 1000000000L;
+		h->iso.next.tv_sec++;
+	}
+}
+
+/* Take what the adapter sent without waiting or handling it (a transmitting program
+ * may never call loop_iterate; the adapter must not wait on a full socket). */
+static void take_waiting(raw1394handle_t h)
+{
+	for (;;) {
+		ssize_t got;
+
+		if (h->in_capacity - h->in_length < 65536) {
+			size_t capacity = h->in_capacity * 2 + 65536;
+			unsigned char *in = realloc(h->in, capacity);
+			if (!in)
+				return;
+			h->in = in;
+			h->in_capacity = capacity;
+		}
+		got = recv(h->sock, h->in + h->in_length, h->in_capacity - h->in_length,
+			   MSG_DONTWAIT);
+		if (got <= 0)
+			break;
+		h->in_length += got;
+	}
+	signal_pending(h);
+}
+
+static int iso_send(raw1394handle_t h, const unsigned char *data, unsigned int len,
+		    unsigned char tag, unsigned char sy)
+{
+	struct request q = { .op = OP_ISO_SEND, .node = h->iso.channel,
+			     .extended_tcode = (tag & 3) << 4 | (sy & 0xF), .data = data,
+			     .data_length = len };
+
+	iso_pace(h);
+	/* The adapter's confirmation is not waited for: nobody is owed it. */
+	if (!put_request(h, &q))
+		return -1;
+	take_waiting(h);
+	return 0;
+}
+
+static int iso_pump(raw1394handle_t h)
+{
+	unsigned int len = 0;
+	unsigned char tag = 0, sy = 0;
+	enum raw1394_iso_disposition disposition;
+
+	disposition = h->iso.xmit(h, h->iso.packet, &len, &tag, &sy, -1, 0);
+	switch (disposition) {
+	case RAW1394_ISO_OK:
+	case RAW1394_ISO_DEFER:
+		if (len > h->iso.max_packet)
+			return fail(EINVAL);
+		return iso_send(h, h->iso.packet, len, tag, sy);
+	case RAW1394_ISO_AGAIN:
+		return 0;
+	case RAW1394_ISO_STOP:
+	case RAW1394_ISO_STOP_NOSYNC:
+		h->iso.started = 0;
+		signal_pending(h);
+		return 0;
+	default:
+		return -1;
+	}
+}
+
+static int iso_listen(raw1394handle_t h, uint64_t mask)
+{
+	struct request q = { .op = OP_ISO_LISTEN, .offset = mask };
+	uint32_t number = put_request(h, &q);
+	struct pending *p;
+
+	if (!number)
+		return -1;
+	p = add_pending(h, number, K_WAIT, OP_ISO_LISTEN);
+	if (!p || wait_for(h, p) < 0)
+		return -1;
+	free(p->data);
+	free(p);
+	h->iso.listen = mask ? number : 0;
+	return 0;
+}
+
+static void iso_stop_receiving(raw1394handle_t h)
+{
+	struct request q = { .op = OP_ISO_LISTEN };
+
+	if (h->iso.mode == ISO_RECV && h->iso.started && h->sock >= 0)
+		put_request(h, &q); /* its confirmation is not waited for */
+	h->iso.listen = 0;
+	h->iso.started = 0;
+}
+
+static int iso_init(raw1394handle_t h, enum iso_mode mode, unsigned int max_packet)
+{
+	if (h->sock < 0)
+		return fail(ENOTCONN);
+	if (h->iso.mode != ISO_OFF)
+		return fail(EBUSY);
+	memset(&h->iso, 0, sizeof h->iso);
+	h->iso.mode = mode;
+	h->iso.max_packet = max_packet;
+	return 0;
+}
+
 int raw1394_iso_xmit_init(raw1394handle_t handle, raw1394_iso_xmit_handler_t handler,
 			  unsigned int buf_packets, unsigned int max_packet_size,
 			  unsigned char channel, enum raw1394_iso_speed speed, int irq_interval)
 {
-	(void)handle; (void)handler; (void)buf_packets; (void)max_packet_size; (void)channel;
-	(void)speed; (void)irq_interval;
-	return no_iso();
+	(void)buf_packets; (void)speed; (void)irq_interval;
+	if (channel > 63)
+		return fail(EINVAL);
+	if (iso_init(handle, ISO_XMIT, max_packet_size) < 0)
+		return -1;
+	handle->iso.xmit = handler;
+	handle->iso.channel = channel;
+	if (handler && !(handle->iso.packet = malloc(max_packet_size ? max_packet_size : 1))) {
+		handle->iso.mode = ISO_OFF;
+		return fail(ENOMEM);
+	}
+	return 0;
 }
 
 int raw1394_iso_recv_init(raw1394handle_t handle, raw1394_iso_recv_handler_t handler,
@@ -1559,74 +1751,114 @@ int raw1394_iso_recv_init(raw1394handle_t handle, raw1394_iso_recv_handler_t han
 			  unsigned char channel, enum raw1394_iso_dma_recv_mode mode,
 			  int irq_interval)
 {
-	(void)handle; (void)handler; (void)buf_packets; (void)max_packet_size; (void)channel;
-	(void)mode; (void)irq_interval;
-	return no_iso();
+	(void)buf_packets; (void)mode; (void)irq_interval;
+	if (channel > 63)
+		return fail(EINVAL);
+	if (iso_init(handle, ISO_RECV, max_packet_size) < 0)
+		return -1;
+	handle->iso.recv = handler;
+	handle->iso.mask = 1ULL << channel;
+	return 0;
 }
 
 int raw1394_iso_multichannel_recv_init(raw1394handle_t handle, raw1394_iso_recv_handler_t handler,
 				       unsigned int buf_packets, unsigned int max_packet_size,
 				       int irq_interval)
 {
-	(void)handle; (void)handler; (void)buf_packets; (void)max_packet_size; (void)irq_interval;
-	return no_iso();
+	(void)buf_packets; (void)irq_interval;
+	if (iso_init(handle, ISO_RECV, max_packet_size) < 0)
+		return -1;
+	handle->iso.recv = handler;
+	return 0;
+}
+
+static int iso_set_mask(raw1394handle_t h, uint64_t mask)
+{
+	if (h->iso.mode != ISO_RECV)
+		return fail(EINVAL);
+	h->iso.mask = mask;
+	return h->iso.started ? iso_listen(h, mask) : 0;
 }
 
 int raw1394_iso_recv_listen_channel(raw1394handle_t handle, unsigned char channel)
 {
-	(void)handle; (void)channel;
-	return no_iso();
+	if (channel > 63)
+		return fail(EINVAL);
+	return iso_set_mask(handle, handle->iso.mask | 1ULL << channel);
 }
 
 int raw1394_iso_recv_unlisten_channel(raw1394handle_t handle, unsigned char channel)
 {
-	(void)handle; (void)channel;
-	return no_iso();
+	if (channel > 63)
+		return fail(EINVAL);
+	return iso_set_mask(handle, handle->iso.mask & ~(1ULL << channel));
 }
 
 int raw1394_iso_recv_set_channel_mask(raw1394handle_t handle, u_int64_t mask)
 {
-	(void)handle; (void)mask;
-	return no_iso();
+	return iso_set_mask(handle, mask);
 }
 
 int raw1394_iso_xmit_start(raw1394handle_t handle, int start_on_cycle, int prebuffer_packets)
 {
-	(void)handle; (void)start_on_cycle; (void)prebuffer_packets;
-	return no_iso();
+	(void)start_on_cycle; (void)prebuffer_packets;
+	if (handle->iso.mode != ISO_XMIT)
+		return fail(EINVAL);
+	handle->iso.started = 1;
+	clock_gettime(CLOCK_MONOTONIC, &handle->iso.next);
+	signal_pending(handle);
+	return 0;
 }
 
 int raw1394_iso_recv_start(raw1394handle_t handle, int start_on_cycle, int tag_mask, int sync)
 {
-	(void)handle; (void)start_on_cycle; (void)tag_mask; (void)sync;
-	return no_iso();
+	(void)start_on_cycle; (void)tag_mask; (void)sync;
+	if (handle->iso.mode != ISO_RECV)
+		return fail(EINVAL);
+	if (iso_listen(handle, handle->iso.mask) < 0)
+		return -1;
+	handle->iso.started = 1;
+	return 0;
 }
 
 int raw1394_iso_xmit_write(raw1394handle_t handle, unsigned char *data, unsigned int len,
 			   unsigned char tag, unsigned char sy)
 {
-	(void)handle; (void)data; (void)len; (void)tag; (void)sy;
-	return no_iso();
+	if (handle->iso.mode != ISO_XMIT || handle->iso.xmit)
+		return fail(EINVAL);
+	if (len > handle->iso.max_packet)
+		return fail(EINVAL);
+	if (!handle->iso.started)
+		raw1394_iso_xmit_start(handle, -1, -1);
+	return iso_send(handle, data, len, tag, sy);
 }
 
 int raw1394_iso_xmit_sync(raw1394handle_t handle)
 {
-	(void)handle;
-	return no_iso();
+	struct request q = { .op = OP_CYCLE_TIME };
+
+	if (handle->iso.mode != ISO_XMIT)
+		return fail(EINVAL);
+	/* The adapter answers in order: once this is answered, every packet went out. */
+	return call(handle, &q, NULL, NULL, NULL);
 }
 
 int raw1394_iso_recv_flush(raw1394handle_t handle)
 {
-	(void)handle;
-	return no_iso();
+	return handle->iso.mode == ISO_RECV ? 0 : fail(EINVAL);
 }
 
 void raw1394_iso_stop(raw1394handle_t handle)
 {
-	(void)handle;
+	if (handle->iso.mode == ISO_RECV)
+		iso_stop_receiving(handle);
+	handle->iso.started = 0;
+	signal_pending(handle);
 }
 
 void raw1394_iso_shutdown(raw1394handle_t handle)
 {
-	(void)handle;
+	raw1394_iso_stop(handle);
+	free(handle->iso.packet);
+	memset(&handle->iso, 0, sizeof handle->iso);
 }

@@ -66,6 +66,8 @@ class Op(IntEnum):
     cycle_time = 10
     config_rom = 11
     reset = 12
+    iso_send = 13
+    iso_listen = 14
 
 
 class Status(IntEnum):

@@ -22,6 +22,10 @@ The operations (``Op``) it owns, and how their fields are used:
   :data:`~fw1394.transport.adapter_node.ROM_IMAGE`; with ``data``, that becomes the
   ROM if ``length`` is the version the client read (a changed ROM resets the bus).
 * ``reset``: ask for a bus reset.
+* ``iso_send``: a stream packet on channel ``node`` (``extended_tcode``: tag << 4 |
+  sy; ``data``: the payload) for every client listening to that channel.
+* ``iso_listen``: the client hears the channels of the 64-bit mask ``offset`` (0:
+  none); each packet is pushed as an :data:`~fw1394.transport.adapter_iso.ISO_PACKET`.
 
 ``read``, ``write`` and ``lock`` addressed to the adapter's own physical ID are
 served here too, as a PC's kernel serves requests to its own node.
@@ -45,6 +49,7 @@ from fw1394.packets import (
 from fw1394.packets.accessors import TCODE
 from fw1394.packets.fast import encode_packet
 from fw1394.packets.nodeid import LOCAL_BUS, is_broadcast
+from fw1394.transport.adapter_iso import IsoChannels
 from fw1394.transport.adapter_node import Answer, Incoming, LocalNode, Push
 from fw1394.transport.adapter_protocol import Op, Reply, Request, Status
 from fw1394.transport.link import ACK, ACK_BYTES, ASYNC_PACKET
@@ -94,6 +99,7 @@ class NodeServices:
     def __init__(self, adapter: Adapter) -> None:
         self.adapter = adapter
         self.node = LocalNode()
+        self.iso = IsoChannels()
         self.watchers: dict[Client, int] = {}
         self._seen: tuple[int, int] | None = None
 
@@ -134,6 +140,12 @@ class NodeServices:
             reply = Reply(request.request, Status.ok, data=node.rom_image())
         elif op is Op.reset:
             self.adapter.host.station.request_reset()
+        elif op is Op.iso_send:
+            tag, sy = request.extended_tcode >> 4, request.extended_tcode & 0xF
+            cycle = node.cycle_time() >> 12 & 0x1FFF
+            self._push(self.iso.send(request.node, tag, sy, request.data, cycle))
+        elif op is Op.iso_listen:
+            self.iso.listen(client, request.request, request.offset)
         else:
             return False
         self.adapter._reply(client, reply)
@@ -191,6 +203,7 @@ class NodeServices:
 
     def dropped(self, client: Client) -> None:
         self.watchers.pop(client, None)
+        self.iso.forget(client)
         for path, answer in self.node.forget(client):
             self._answer(path, answer)
 

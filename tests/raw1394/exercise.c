@@ -218,8 +218,11 @@ int main(void)
 	CHECK("echo_request", raw1394_echo_request(h, 0x1234) == 0 &&
 		      raw1394_loop_iterate(h) == 0x1234, "echo");
 	errno = 0;
-	CHECK("iso errno", raw1394_iso_recv_init(h, NULL, 8, 64, 1, RAW1394_DMA_DEFAULT, 1) < 0 &&
-		      errno == ENOSYS, "iso");
+	CHECK("iso needs init", raw1394_iso_xmit_write(h, (unsigned char *)block, 8, 0, 0) < 0 &&
+		      errno == EINVAL, "iso");
+	CHECK("iso_recv_init", raw1394_iso_recv_init(h, NULL, 8, 64, 1, RAW1394_DMA_DEFAULT, 1) == 0
+		      && raw1394_iso_recv_start(h, -1, -1, 0) == 0, "iso recv");
+	raw1394_iso_shutdown(h);
 
 	/* A node dies: its reads fail, the bus resets without it. */
 	before = resets;
