@@ -225,3 +225,37 @@ def test_sendiso_into_dumpiso(cache: Path, tmp_path: Path) -> None:
     # Every packet arrived intact and in order from the first dumpiso listened for.
     assert first < count
     assert got == (records * loops)[first:]
+
+
+def dynamic_symbols(library: Path) -> set[str]:
+    out = subprocess.run(
+        ["nm", "-D", "--defined-only", str(library)], capture_output=True, text=True, check=True
+    ).stdout
+    return {
+        line.split()[-1] for line in out.splitlines() if line.split()[-1].startswith("raw1394_")
+    }
+
+
+@pytest.mark.skipif(
+    shutil.which("nm") is None or shutil.which("readelf") is None, reason="binutils"
+)
+def test_library_has_debians_soname_and_exports(cache: Path) -> None:
+    debian = Path("/usr/lib/x86_64-linux-gnu/libraw1394.so.11")
+    if not debian.exists():
+        pytest.skip("Debian's libraw1394.so.11 is not installed to compare with")
+    built = subprocess.run(
+        [str(Path(sys.executable).with_name("fw1394")), "libraw1394", "--path"],
+        env={**os.environ, "XDG_CACHE_HOME": str(cache)},
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.strip()
+    library = Path(built)
+    dynamic = subprocess.run(
+        ["readelf", "-d", "--dyn-syms", str(library)], capture_output=True, text=True, check=True
+    ).stdout
+    assert "Library soname: [libraw1394.so.11]" in dynamic
+    assert "@" not in "".join(line for line in dynamic.splitlines() if "raw1394_" in line)
+    # Every function Debian's library offers programs (its raw1394_* exports), no more.
+    assert dynamic_symbols(library) == dynamic_symbols(debian)
+    assert len(dynamic_symbols(library)) == 68
