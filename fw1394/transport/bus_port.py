@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import functools
+import time
 
 from fw1394.engine import LockCompleted, TransactionEvent, TransactionFailed
 from fw1394.transport.bus_host import BusHost, StaleGenerationError, TransactionError
 from fw1394.transport.express import Express
+from fw1394.transport.wire import MemberInfo
 
 __all__ = ["BusPort", "StaleGenerationError", "TransactionError"]
 
@@ -36,6 +38,16 @@ class BusPort(BusHost):
     @functools.cached_property
     def _express(self) -> Express:
         return Express(self)
+
+    def table(self) -> tuple[int, tuple[MemberInfo, ...]]:
+        """The bus generation and its members in physical-ID order, once this host is ready.
+
+        What the bus said since this host's last call is taken in first: a reset
+        that happened meanwhile is in the answer.
+        """
+        self._come_back(time.monotonic())
+        self.on_bus()
+        return self.generation, self.members
 
     def read_quadlet(self, node: int, offset: int, *, generation: int | None = None) -> int:
         if generation is None:
