@@ -21,6 +21,7 @@ from typing import Any
 from fw1394.cli.attach import add_attach_options, host_member, open_port, port_errors
 from fw1394.cli.bus import add_bus_options, add_member_options, bus_config
 from fw1394.cli.common import CliError, fail, integer
+from fw1394.errors import Error
 from fw1394.packets import ExtendedTCode, RCode, name_of
 from fw1394.packets.hextext import quadlets_hex
 from fw1394.packets.nodeid import BROADCAST_PHY
@@ -238,7 +239,7 @@ _TCODE_OF = {
 }
 
 
-class _Failed(Exception):
+class _Failed(Error):
     """A transaction that failed on the bus (exit status 1, not a usage error)."""
 
     def __init__(self, message: str, failure: dict[str, str]) -> None:

@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Self
 
 from fw1394.engine import FailureReason, TransactionFailed
+from fw1394.errors import BusUnreachable
 from fw1394.transport.adapter_protocol import (
     CHOSEN,
     NONE,
@@ -42,7 +43,7 @@ from fw1394.transport.runtime import adapter_socket, bus_dir
 from fw1394.transport.wire import NO_PHY, MemberInfo, parse_table
 
 
-class AdapterError(RuntimeError):
+class AdapterError(BusUnreachable):
     """The adapter cannot be reached, or would not run a request."""
 
 

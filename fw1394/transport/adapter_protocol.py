@@ -34,6 +34,8 @@ from construct import (
     Struct,
 )
 
+from fw1394.errors import PacketError
+
 #: Length prefix of every frame.
 LENGTH = struct.Struct(">I")
 #: No message is longer: the longest block plus its headers, with room to spare.
@@ -52,6 +54,8 @@ STALE = struct.Struct(">I")
 
 
 class Op(IntEnum):
+    """The operations a bus adapter request asks for."""
+
     info = 0
     read = 1
     write = 2
@@ -173,7 +177,7 @@ class Reply:
         return LENGTH.pack(len(body)) + body
 
 
-class ProtocolError(ValueError):
+class ProtocolError(PacketError):
     """Bytes that are not a message of this protocol."""
 
 

@@ -21,8 +21,10 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Self
 
+from fw1394 import errors
 from fw1394.engine import Event, FailureReason, Requester, TransactionEvent, TransactionFailed
-from fw1394.packets import BlockReadResponse, RCode, name_of
+from fw1394.errors import BusUnreachable
+from fw1394.packets import AckCode, BlockReadResponse, RCode, name_of
 from fw1394.packets.fast import encode_packet
 from fw1394.packets.nodeid import BROADCAST_ID, resolve
 from fw1394.packets.nodeid import LOCAL_BUS as LOCAL_BUS  # the bus hosts address, re-exported
@@ -46,12 +48,26 @@ MAX_BLOCK_READ = (MAX_UDP_PAYLOAD - HEADER_SIZE - ACK_SIZE - _BLOCK_OVERHEAD) & 
 MAX_BLOCK_WRITE = (MAX_UDP_PAYLOAD - HEADER_SIZE - _BLOCK_OVERHEAD) & ~3
 
 
-class BusError(RuntimeError):
+class BusError(BusUnreachable):
     """The host could not get onto the bus (no answer, or the bus is full)."""
 
 
-class TransactionError(RuntimeError):
-    """A transaction failed; ``reason`` is the engine's name for why."""
+class EngineTransactionError(errors.TransactionError, RuntimeError):
+    """A :class:`fw1394.TransactionError` made of the engine's ``TransactionFailed`` event.
+
+    ``reason`` is the engine's name for why the transaction failed.
+
+    ``ack`` holds the ack code of an ``ack_*_error`` failure and ``rcode`` the
+    response code of an ``rcode_error``. Like ``OSError`` with an errno, the
+    constructor returns the more specific :class:`TransactionTimeout` when
+    nothing answered (no ack, or no response in time), so ``except
+    fw1394.Timeout`` catches those wherever they come from.
+    """
+
+    def __new__(cls, failure: TransactionFailed) -> EngineTransactionError:
+        if cls is EngineTransactionError and failure.reason in _UNANSWERED:
+            cls = TransactionTimeout
+        return super().__new__(cls, failure)
 
     def __init__(self, failure: TransactionFailed) -> None:
         self.failure = failure
@@ -61,7 +77,19 @@ class TransactionError(RuntimeError):
             text += f" ({name_of(RCode, failure.rcode)})"
         if failure.detail and failure.detail != text:
             text += f": {failure.detail}"
-        super().__init__(text)
+        ack = AckCode[failure.reason.value] if failure.reason.value in AckCode.__members__ else None
+        super().__init__(text, ack=ack, rcode=failure.rcode)
+
+
+class TransactionTimeout(EngineTransactionError, errors.Timeout):
+    """A transaction no node answered: no ack, or no response before the split timeout."""
+
+
+#: The name the ports raise and catch it by.
+TransactionError = EngineTransactionError
+
+
+_UNANSWERED = frozenset({FailureReason.no_ack, FailureReason.response_timeout})
 
 
 class StaleGenerationError(TransactionError):
