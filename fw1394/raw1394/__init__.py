@@ -7,3 +7,8 @@ serves them as a PC's kernel serves libraw1394. The C part (``shim.c``,
 package data) only marshals calls to the adapter's protocol; :mod:`.build`
 compiles it on first use, :mod:`.launch` runs a program with it in place.
 """
+
+from fw1394.raw1394.build import SONAME, BuildError, library_path
+from fw1394.raw1394.launch import environment
+
+__all__ = ["SONAME", "BuildError", "environment", "library_path"]

@@ -18,6 +18,8 @@ import tempfile
 from importlib import resources
 from pathlib import Path
 
+from fw1394.errors import Error
+
 #: The name programs linked against libraw1394 load.
 SONAME = "libraw1394.so.11"
 #: Where the libraw1394 headers live on Debian and most distributions.
@@ -25,7 +27,7 @@ HEADER = Path("/usr/include/libraw1394/raw1394.h")
 _FLAGS = ("-O2", "-fPIC", "-shared", "-Wall", f"-Wl,-soname,{SONAME}")
 
 
-class BuildError(RuntimeError):
+class BuildError(Error, RuntimeError):
     """The library cannot be built here; the message says what to install."""
 
 
