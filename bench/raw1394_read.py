@@ -2,6 +2,8 @@
 
     python bench/raw1394_read.py               # 8 rounds of 2000 reads each way
     python bench/raw1394_read.py --rounds 4 --reads 500 --json
+    python bench/raw1394_read.py --rt          # the JHU-style loop, 4 boards
+
 
 Starts a bus of one memory board with its host adapter (in a private runtime
 directory), builds the library, and times quadlet reads of the board in
@@ -10,7 +12,10 @@ program (built here against the system's libraw1394 headers, run with the
 library in place) calling raw1394_read in a loop, then AdapterPort again...
 Each side times only its loop (the C program reports its own clock), so
 process start-up is not counted. The ratio library / AdapterPort per round and
-their median are printed; the issue's goal is <= 1.3x. Nothing is asserted.
+their median are printed; the issue's goal is <= 1.3x. ``--rt`` instead runs the
+JHU host library's real-time loop shape through the library (per cycle, one
+64-byte block read and one 16-byte block write per board, four boards) and
+prints cycles per second (goal >= 1 kHz). Nothing is asserted.
 The machine this runs on may be shared: compare ratios of one run, not
 absolute times across runs.
 """
@@ -58,6 +63,35 @@ int main(int argc, char **argv)
 """
 
 
+RT_PROGRAM = r"""
+#include <stdio.h>
+#include <stdlib.h>
+#include <time.h>
+#include <libraw1394/raw1394.h>
+int main(int argc, char **argv)
+{
+	int cycles = atoi(argv[1]), boards = atoi(argv[2]), i, b;
+	quadlet_t in[16], out[4] = { 0 };
+	struct timespec a, z;
+	raw1394handle_t h = raw1394_new_handle_on_port(0);
+	if (!h) { perror("raw1394_new_handle_on_port"); return 1; }
+	clock_gettime(CLOCK_MONOTONIC, &a);
+	for (i = 0; i < cycles; i++)
+		for (b = 0; b < boards; b++) {
+			out[0] = i;
+			if (raw1394_read(h, 0xFFC0 | b, 0, sizeof in, in) < 0 ||
+				raw1394_write(h, 0xFFC0 | b, 0x100, sizeof out, out) < 0) {
+				perror("transaction"); return 1;
+			}
+		}
+	clock_gettime(CLOCK_MONOTONIC, &z);
+	printf("%.1f\n", cycles / ((z.tv_sec - a.tv_sec) + (z.tv_nsec - a.tv_nsec) / 1e9));
+	raw1394_destroy_handle(h);
+	return 0;
+}
+"""
+
+
 def adapter_port_round(port: AdapterPort, reads: int) -> float:
     for _ in range(20):
         port.read_quadlet(0, 0)
@@ -79,20 +113,22 @@ def main() -> int:
     parser.add_argument("--rounds", type=int, default=8)
     parser.add_argument("--reads", type=int, default=2000)
     parser.add_argument("--json", action="store_true")
+    parser.add_argument("--rt", action="store_true", help="the real-time loop, 4 boards")
     args = parser.parse_args()
     if shutil.which("gcc") is None:
         print("raw1394_read bench: gcc is needed", file=sys.stderr)
         return 2
     work = Path(tempfile.mkdtemp(prefix="fwbench"))
     os.environ["XDG_RUNTIME_DIR"] = str(work)
-    program = work / "read_loop"
-    (work / "read_loop.c").write_text(PROGRAM)
+    program = work / "loop"
+    (work / "loop.c").write_text(RT_PROGRAM if args.rt else PROGRAM)
     subprocess.run(
-        ["gcc", "-O2", "-o", str(program), str(work / "read_loop.c"), "-lraw1394"], check=True
+        ["gcc", "-O2", "-o", str(program), str(work / "loop.c"), "-lraw1394"], check=True
     )
     config = BusConfig(f"bench-raw1394-{os.getpid()}")
+    boards = 4 if args.rt else 1
     bus = LaunchedBus(
-        config, 1, board="memory", root=work / "fw1394", node_arguments=("--adapter",)
+        config, boards, board="memory", root=work / "fw1394", node_arguments=("--adapter",)
     )
     rows = []
     try:
@@ -102,14 +138,34 @@ def main() -> int:
                 print("raw1394_read bench: the adapter did not come up", file=sys.stderr)
                 return 1
             env = environment(config.name, work / "fw1394")
+            if args.rt:
+                for _ in range(args.rounds):
+                    out = subprocess.run(
+                        [str(program), str(args.reads // 4), str(boards)],
+                        env=env,
+                        capture_output=True,
+                        text=True,
+                        check=True,
+                    )
+                    rows.append((0.0, 0.0, float(out.stdout)))
             with AdapterPort(config.name, root=work / "fw1394") as port:
                 port.members()
-                for _ in range(args.rounds):
+                for _ in range(0 if args.rt else args.rounds):
                     python_ns = adapter_port_round(port, args.reads)
                     library_ns = library_round(program, env, args.reads)
                     rows.append((python_ns, library_ns, library_ns / python_ns))
     finally:
         shutil.rmtree(work, ignore_errors=True)
+    if args.rt:
+        rates = [r for _, _, r in rows]
+        if args.json:
+            print(json.dumps({"boards": boards, "cycles_per_second": rates, "goal": 1000}))
+        else:
+            print("real-time loop through libraw1394: per cycle one 64-byte block read and one")
+            print(f"16-byte block write to each of {boards} boards (shared machine)")
+            print("cycles/s per round: " + ", ".join(f"{r:.0f}" for r in rates))
+            print(f"median: {statistics.median(rates):.0f} cycles/s (goal >= 1000)")
+        return 0
     ratios = [r for _, _, r in rows]
     summary = {
         "reads_per_round": args.reads,
