@@ -40,7 +40,7 @@
 /* Adapter protocol operations (fw1394.transport.adapter_protocol.Op). */
 enum op { OP_INFO, OP_READ, OP_WRITE, OP_LOCK, OP_SEND, OP_HELLO, OP_WATCH, OP_LISTEN,
 	  OP_UNLISTEN, OP_RESPOND, OP_CYCLE_TIME, OP_CONFIG_ROM, OP_RESET, OP_ISO_SEND,
-	  OP_ISO_LISTEN };
+	  OP_ISO_LISTEN, OP_ADD_DESCRIPTOR, OP_REMOVE_DESCRIPTOR };
 enum status { ST_OK, ST_FAILED, ST_REFUSED, ST_STALE };
 /* The protocol version this library speaks. */
 #define PROTOCOL_VERSION 2
@@ -1523,7 +1523,7 @@ int raw1394_read_cycle_timer_and_clock(raw1394handle_t handle, u_int32_t *cycle_
 
 /* ---- what the virtual bus does not carry ----------------------------------------------- */
 
-static int said_raw, said_rom, said_resources;
+static int said_raw, said_resources;
 
 static int no_raw(void)
 {
@@ -1536,16 +1536,33 @@ int raw1394_add_config_rom_descriptor(raw1394handle_t handle, u_int32_t *token,
 				      quadlet_t immediate_key, quadlet_t key,
 				      const quadlet_t *data, size_t size)
 {
-	(void)handle; (void)token; (void)immediate_key; (void)key; (void)data; (void)size;
-	say_once(&said_rom, "configuration ROM descriptors are not supported; use "
-			    "raw1394_update_config_rom (ENOSYS)");
-	return fail(ENOSYS);
+	struct request q = { .op = OP_ADD_DESCRIPTOR, .offset = immediate_key, .length = key,
+			     .data_length = size };
+	unsigned char *reply = NULL, *bus = malloc(size ? size : 1);
+	size_t n = 0, i;
+	int result;
+
+	/* Unlike transaction buffers, descriptor quadlets are in host byte order. */
+	if (!bus)
+		return fail(ENOMEM);
+	for (i = 0; i < size / 4; i++)
+		put32(bus + 4 * i, data[i]);
+	q.data = bus;
+	result = call(handle, &q, &reply, &n, NULL);
+	free(bus);
+	if (result < 0)
+		return -1;
+	if (n >= 4 && token)
+		*token = get32(reply);
+	free(reply);
+	return n >= 4 ? 0 : fail(EPROTO);
 }
 
 int raw1394_remove_config_rom_descriptor(raw1394handle_t handle, u_int32_t token)
 {
-	(void)handle; (void)token;
-	return fail(ENOSYS);
+	struct request q = { .op = OP_REMOVE_DESCRIPTOR, .offset = token };
+
+	return call(handle, &q, NULL, NULL, NULL);
 }
 
 int raw1394_bandwidth_modify(raw1394handle_t handle, unsigned int bandwidth,

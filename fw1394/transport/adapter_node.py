@@ -147,8 +147,24 @@ class Deferred:
     request: Incoming
 
 
-def adapter_config_rom(vendor: int = 0x001394, chip: int = 1) -> list[int]:
-    """The adapter's configuration ROM: bus-info block, root directory, a text leaf."""
+@dataclass(frozen=True, slots=True)
+class Descriptor:
+    """Blocks a program added to the ROM, and the root directory entries naming them."""
+
+    owner: Hashable
+    #: An immediate entry put before the pointer (0: none).
+    immediate: int
+    #: The pointer entry's key byte (bits 31-24; the offset is filled in).
+    key: int
+    #: The blocks, each with its own header (length, CRC), as the program gave them.
+    blocks: tuple[int, ...]
+
+
+def adapter_config_rom(
+    vendor: int = 0x001394, chip: int = 1, descriptors: Sequence[Descriptor] = ()
+) -> list[int]:
+    """The adapter's configuration ROM: bus-info block, root directory, a text leaf,
+    and the blocks of ``descriptors`` (each named by an entry of the root directory)."""
 
     def block(body: list[int], length: int | None = None) -> list[int]:
         data = b"".join(q.to_bytes(4, "big") for q in body)
@@ -158,8 +174,27 @@ def adapter_config_rom(vendor: int = 0x001394, chip: int = 1) -> list[int]:
     bus_options = 0xE0000000 | 0x64 << 16 | 0xA << 12 | 2
     bus_info = block([0x31333934, bus_options, vendor << 8, chip], length=0x0404)
     leaf = block([0, 0, *_quadlets(b"fw1394 host adapter")])
-    root = block([0x0C << 24 | 0x0083C0, 0x03 << 24 | vendor, 0x81 << 24 | 1])
-    return bus_info + root + leaf
+    # Entries point forward by quadlets from themselves (IEEE 1212 7.7.18): lay out the
+    # root directory first, then the blocks in entry order.
+    entries: list[tuple[int, list[int] | None]] = [
+        (0x0C << 24 | 0x0083C0, None),
+        (0x03 << 24 | vendor, None),
+        (0x81 << 24, leaf),
+    ]
+    for descriptor in descriptors:
+        if descriptor.immediate:
+            entries.append((descriptor.immediate, None))
+        entries.append((descriptor.key & 0xFF000000, list(descriptor.blocks)))
+    root_start = len(bus_info) + 1  # the first entry, after the root directory's header
+    next_block = root_start + len(entries)
+    body, blocks = [], []
+    for index, (entry, target) in enumerate(entries):
+        if target is not None:
+            entry |= next_block - (root_start + index)
+            blocks += target
+            next_block += len(target)
+        body.append(entry)
+    return bus_info + block(body) + blocks
 
 
 def _quadlets(text: bytes) -> list[int]:
@@ -191,6 +226,7 @@ class LocalNode:
     bandwidth: int = BANDWIDTH_UNITS
     channels: tuple[int, int] = (0xFFFFFFFF, 0xFFFFFFFF)
     listeners: list[Listener] = field(default_factory=list)
+    descriptors: dict[int, Descriptor] = field(default_factory=dict)
     deferred: dict[int, Deferred] = field(default_factory=dict)
     _handles: int = 0
     _epoch: float = field(default_factory=time.monotonic)
@@ -250,6 +286,8 @@ class LocalNode:
     def forget(self, owner: Hashable) -> list[tuple[object, Answer]]:
         """``owner`` left: its claims go; requests it owed an answer fail."""
         self.listeners = [x for x in self.listeners if x.owner != owner]
+        for token in [t for t, d in self.descriptors.items() if d.owner == owner]:
+            self.remove_descriptor(owner, token)  # the kernel reverts them when a client leaves
         gone = [h for h, d in self.deferred.items() if d.owner == owner]
         return [(self.deferred.pop(h).path, Answer(RCode.resp_address_error)) for h in gone]
 
@@ -386,6 +424,34 @@ class LocalNode:
             {"version": self.rom_version, "rom": b"".join(q.to_bytes(4, "big") for q in self.rom)}
         )
         return image
+
+    def add_descriptor(self, owner: Hashable, immediate: int, key: int, data: bytes) -> int:
+        """Add ``data`` (whole blocks, headers included) to the ROM; its token."""
+        if not data or len(data) % 4:
+            raise ValueError(f"a descriptor of {len(data)} bytes is not whole quadlets")
+        words = tuple(int.from_bytes(data[i : i + 4], "big") for i in range(0, len(data), 4))
+        at = 0
+        while at < len(words):  # the blocks must fill the data exactly, as the kernel checks
+            at += (words[at] >> 16) + 1
+        if at != len(words):
+            raise ValueError("the descriptor's block lengths do not add up to its size")
+        token = max(self.descriptors, default=0) + 1
+        descriptors = {**self.descriptors, token: Descriptor(owner, immediate, key, words)}
+        rom = adapter_config_rom(descriptors=list(descriptors.values()))
+        if len(rom) * 4 > CONFIG_ROM_END - CONFIG_ROM:
+            raise ValueError("the configuration ROM would not fit 1 KiB")
+        self.descriptors, self.rom = descriptors, rom
+        self.rom_version = (self.rom_version + 1) & 0xFF
+        return token
+
+    def remove_descriptor(self, owner: Hashable, token: int) -> None:
+        """Take the blocks of ``token`` out of the ROM again."""
+        descriptor = self.descriptors.get(token)
+        if descriptor is None or descriptor.owner != owner:
+            raise ValueError(f"no descriptor {token} of this program is in the ROM")
+        del self.descriptors[token]
+        self.rom = adapter_config_rom(descriptors=list(self.descriptors.values()))
+        self.rom_version = (self.rom_version + 1) & 0xFF
 
     def update_rom(self, rom: bytes, version: int) -> bool:
         """Replace the ROM a program read as ``version``; whether its contents changed."""

@@ -72,6 +72,8 @@ class Op(IntEnum):
     reset = 12
     iso_send = 13
     iso_listen = 14
+    add_descriptor = 15
+    remove_descriptor = 16
 
 
 class Status(IntEnum):

@@ -22,6 +22,11 @@ The operations (``Op``) it owns, and how their fields are used:
   :data:`~fw1394.transport.adapter_node.ROM_IMAGE`; with ``data``, that becomes the
   ROM if ``length`` is the version the client read (a changed ROM resets the bus).
 * ``reset``: ask for a bus reset.
+* ``add_descriptor``: add ``data`` (whole ROM blocks) to the configuration ROM,
+  named by a root directory entry of key byte ``length >> 24``, after an immediate
+  entry ``offset`` if not 0; the reply's ``data`` is the u32 token.
+  ``remove_descriptor`` (``offset``: the token) takes it out again. Both reset the
+  bus; a client's descriptors go when it leaves.
 * ``iso_send``: a stream packet on channel ``node`` (``extended_tcode``: tag << 4 |
   sy; ``data``: the payload) for every client listening to that channel.
 * ``iso_listen``: the client hears the channels of the 64-bit mask ``offset`` (0:
@@ -140,6 +145,13 @@ class NodeServices:
             reply = Reply(request.request, Status.ok, data=node.rom_image())
         elif op is Op.reset:
             self.adapter.host.station.request_reset()
+        elif op is Op.add_descriptor:
+            token = node.add_descriptor(client, request.offset, request.length, request.data)
+            reply = Reply(request.request, Status.ok, data=token.to_bytes(4, "big"))
+            self.adapter.host.station.request_reset()
+        elif op is Op.remove_descriptor:
+            node.remove_descriptor(client, request.offset)
+            self.adapter.host.station.request_reset()
         elif op is Op.iso_send:
             tag, sy = request.extended_tcode >> 4, request.extended_tcode & 0xF
             cycle = node.cycle_time() >> 12 & 0x1FFF
@@ -204,6 +216,8 @@ class NodeServices:
     def dropped(self, client: Client) -> None:
         self.watchers.pop(client, None)
         self.iso.forget(client)
+        if any(d.owner == client for d in self.node.descriptors.values()):
+            self.adapter.host.station.request_reset()  # its ROM blocks go with it
         for path, answer in self.node.forget(client):
             self._answer(path, answer)
 

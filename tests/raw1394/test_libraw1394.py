@@ -106,6 +106,9 @@ def test_testlibraw_passes_against_a_bus_of_qla1_boards(cache: Path) -> None:
     assert rom[1] == int.from_bytes(b"1394", "big")
     info = b"".join(q.to_bytes(4, "big") for q in rom[1:5])
     assert rom[0] >> 24 == 4 and rom[0] & 0xFFFF == crc16(info)
+    # A unit directory added to the local ROM, then removed (testlibraw's own data).
+    assert "added unit '0x58595a:0x616263', reverting in 5 seconds" in out
+    assert "unit '0x58595a:0x616263' removed" in out
     # Cycle timer: seconds, cycles (< 8000), sub-cycle offsets (< 3072).
     cycles = re.findall(r"cycle timer: (\d+) seconds, (\d+) cycles, (\d+) sub-cycles", out)
     assert len(cycles) == 3

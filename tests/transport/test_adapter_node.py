@@ -186,3 +186,33 @@ def test_iso_packets_reach_the_listeners_of_their_channel() -> None:
     assert pushes[0].data == bytes([9, 1, 3, 0]) + (7999).to_bytes(2, "big") + b"abcd"
     channels.listen("many", 2, 0)
     assert [p.owner for p in channels.send(5, 0, 0, b"", 0)] == ["five"]
+
+
+def test_a_descriptor_joins_the_root_directory_and_leaves_with_its_owner() -> None:
+    node = LocalNode()
+    before = list(node.rom)
+    # A unit directory: header (2 entries, CRC), specifier ID and version immediates.
+    unit = [0x58595A, 0x616263]
+    body = [0x12 << 24 | unit[0], 0x13 << 24 | unit[1]]
+    block = [2 << 16 | crc16_1212(b"".join(q.to_bytes(4, "big") for q in body)), *body]
+    data = b"".join(q.to_bytes(4, "big") for q in block)
+    token = node.add_descriptor("program", 0x0C000000 | 0x0083C0, 0xD1000000, data)
+    rom = node.rom
+    root = 5  # after the bus-info block
+    length = rom[root] >> 16
+    root_bytes = b"".join(q.to_bytes(4, "big") for q in rom[root + 1 : root + 1 + length])
+    assert rom[root] & 0xFFFF == crc16_1212(root_bytes)
+    pointer = next(i for i in range(root + 1, root + 1 + length) if rom[i] >> 24 == 0xD1)
+    assert rom[pointer - 1] == 0x0C0083C0  # the immediate entry just before it
+    target = pointer + (rom[pointer] & 0xFFFFFF)
+    assert rom[target : target + 3] == block
+    # The text leaf the root directory named before is still where its entry points.
+    leaf_entry = next(i for i in range(root + 1, root + 1 + length) if rom[i] >> 24 == 0x81)
+    leaf = leaf_entry + (rom[leaf_entry] & 0xFFFFFF)
+    assert b"fw1394" in b"".join(q.to_bytes(4, "big") for q in rom[leaf + 3 : leaf + 6])
+    with pytest.raises(ValueError):
+        node.remove_descriptor("someone else", token)
+    with pytest.raises(ValueError, match="add up"):
+        node.add_descriptor("program", 0, 0xD1000000, (5 << 16).to_bytes(4, "big"))
+    node.forget("program")
+    assert node.rom == before and node.descriptors == {}
