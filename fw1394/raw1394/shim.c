@@ -330,7 +330,8 @@ static raw1394_errcode_t errcode_of(const struct reply *r, int op)
 	size_t i;
 
 	if (r->status == ST_OK)
-		return raw1394_make_errcode(op == OP_WRITE ? ACK_COMPLETE : ACK_PENDING, 0);
+		return raw1394_make_errcode(op == OP_WRITE || op == OP_ISO_SEND ? ACK_COMPLETE :
+					    ACK_PENDING, 0);
 	if (r->status == ST_REFUSED)
 		return ERR_REFUSED;
 	if (r->status == ST_STALE)
@@ -1527,8 +1528,7 @@ static int said_raw, said_resources;
 
 static int no_raw(void)
 {
-	say_once(&said_raw, "raw packets, PHY packets and asynchronous streams are not "
-			    "supported (ENOSYS)");
+	say_once(&said_raw, "raw packets and PHY packets are not supported (ENOSYS)");
 	return fail(ENOSYS);
 }
 
@@ -1595,13 +1595,26 @@ int raw1394_start_phy_packet_write(raw1394handle_t handle, quadlet_t data, unsig
 	return no_raw();
 }
 
+/* An asynchronous stream packet: a stream packet on a channel, outside the cycle
+ * schedule; whoever listens to the channel receives it. */
 int raw1394_start_async_stream(raw1394handle_t handle, unsigned int channel, unsigned int tag,
 			       unsigned int sy, unsigned int speed, size_t length, quadlet_t *data,
 			       unsigned long rawtag)
 {
-	(void)handle; (void)channel; (void)tag; (void)sy; (void)speed; (void)length; (void)data;
-	(void)rawtag;
-	return no_raw();
+	struct request q = { .op = OP_ISO_SEND, .node = channel,
+			     .extended_tcode = (tag & 3) << 4 | (sy & 0xF), .data = data,
+			     .data_length = length };
+	uint32_t number;
+	struct pending *p;
+
+	(void)speed;
+	if (channel > 63)
+		return fail(EINVAL);
+	number = put_request(handle, &q);
+	if (!number || !(p = add_pending(handle, number, K_TAG, OP_ISO_SEND)))
+		return -1;
+	p->tag = rawtag;
+	return 0;
 }
 
 int raw1394_start_async_send(raw1394handle_t handle, size_t length, size_t header_length,
@@ -1615,7 +1628,18 @@ int raw1394_start_async_send(raw1394handle_t handle, size_t length, size_t heade
 int raw1394_async_stream(raw1394handle_t handle, unsigned int channel, unsigned int tag,
 			 unsigned int sy, unsigned int speed, size_t length, quadlet_t *data)
 {
-	return raw1394_start_async_stream(handle, channel, tag, sy, speed, length, data, 0);
+	struct request q = { .op = OP_ISO_SEND, .node = channel,
+			     .extended_tcode = (tag & 3) << 4 | (sy & 0xF), .data = data,
+			     .data_length = length };
+	raw1394_errcode_t code;
+
+	(void)speed;
+	if (channel > 63)
+		return fail(EINVAL);
+	if (call(handle, &q, NULL, NULL, &code) < 0)
+		return -1;
+	handle->err = code;
+	return 0;
 }
 
 int raw1394_async_send(raw1394handle_t handle, size_t length, size_t header_length,

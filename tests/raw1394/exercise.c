@@ -70,6 +70,19 @@ static int on_fcp(raw1394handle_t h, nodeid_t node, int response, size_t length,
 	return 0;
 }
 
+static int streams;
+
+static enum raw1394_iso_disposition on_stream(raw1394handle_t h, unsigned char *data,
+					      unsigned int len, unsigned char channel,
+					      unsigned char tag, unsigned char sy, unsigned int cycle,
+					      unsigned int dropped)
+{
+	(void)h; (void)cycle; (void)dropped;
+	if (len == 4 && channel == 9 && tag == 1 && sy == 2 && data[1] == 0x57)
+		streams++;
+	return RAW1394_ISO_OK;
+}
+
 /* Serve events until ``*counter`` reaches ``want`` or ``seconds`` pass. */
 static int serve_until(raw1394handle_t h, int *counter, int want, int seconds)
 {
@@ -220,8 +233,12 @@ int main(void)
 	errno = 0;
 	CHECK("iso needs init", raw1394_iso_xmit_write(h, (unsigned char *)block, 8, 0, 0) < 0 &&
 		      errno == EINVAL, "iso");
-	CHECK("iso_recv_init", raw1394_iso_recv_init(h, NULL, 8, 64, 1, RAW1394_DMA_DEFAULT, 1) == 0
-		      && raw1394_iso_recv_start(h, -1, -1, 0) == 0, "iso recv");
+	CHECK("iso_recv_init", raw1394_iso_recv_init(h, on_stream, 8, 64, 9, RAW1394_DMA_DEFAULT,
+						     1) == 0 &&
+		      raw1394_iso_recv_start(h, -1, -1, 0) == 0, "iso recv");
+	value = htonl(0x57AEA3);
+	CHECK("async_stream", raw1394_async_stream(h, 9, 1, 2, RAW1394_ISO_SPEED_400, 4, &value) == 0
+		      && serve_until(h, &streams, 1, 10) == 0, "streams %d", streams);
 	raw1394_iso_shutdown(h);
 
 	/* A node dies: its reads fail, the bus resets without it. */

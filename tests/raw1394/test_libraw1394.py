@@ -167,6 +167,7 @@ def test_exercise_program_under_valgrind(cache: Path, tmp_path: Path) -> None:
         "broadcast reached every node",
         "fcp handler",
         "read own ARM range",
+        "async_stream",
         "read from a dead node fails",
         "reset after the death",
     ):
