@@ -16,6 +16,7 @@ import shutil
 from typing import Any
 
 from fw1394.cli.common import CliError
+from fw1394.transport.config import DEFAULT_BUS
 
 RUN_EPILOG = """\
 examples:
@@ -47,7 +48,7 @@ def register(subparsers: Any) -> None:
         epilog=RUN_EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    run_parser.add_argument("--name", default="default", help="bus name (default: %(default)s)")
+    run_parser.add_argument("--name", default=DEFAULT_BUS, help="bus name (default: %(default)s)")
     run_parser.add_argument("command", nargs=argparse.REMAINDER, metavar="-- PROGRAM ARGS")
     run_parser.set_defaults(handler=run)
     library_parser = subparsers.add_parser(
