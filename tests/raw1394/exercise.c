@@ -48,6 +48,16 @@ static int on_reset(raw1394handle_t h, unsigned int generation)
 	return 0;
 }
 
+/* Notes the reset but keeps the old generation, as a program that does not call
+ * raw1394_update_generation. */
+static int on_reset_kept(raw1394handle_t h, unsigned int generation)
+{
+	(void)h;
+	resets++;
+	last_generation = generation;
+	return 0;
+}
+
 static int on_tag(raw1394handle_t h, unsigned long tag, raw1394_errcode_t err)
 {
 	int error = raw1394_errcode_to_errno(err);
@@ -184,6 +194,20 @@ int main(void)
 	printf("across the reset: %d completed, %d EAGAIN\n", tags_ok, tags_again);
 	CHECK("bus reset handler", serve_until(h, &resets, before + 1, 15) == 0 &&
 		      raw1394_get_generation(h) == last_generation, "resets %d", resets);
+
+	/* A reset the program has not taken in: its requests are of an ended generation. */
+	raw1394_set_bus_reset_handler(h, on_reset_kept);
+	before = resets;
+	CHECK("reset_bus_new", raw1394_reset_bus_new(h, RAW1394_SHORT_RESET) == 0, "reset");
+	CHECK("reset seen, generation kept", serve_until(h, &resets, before + 1, 15) == 0 &&
+		      raw1394_get_generation(h) != last_generation, "generation %u",
+	      raw1394_get_generation(h));
+	errno = 0;
+	CHECK("stale generation fails", raw1394_read(h, 0xFFC0, BASE, 4, &value) < 0 &&
+		      errno == EAGAIN, "read");
+	raw1394_update_generation(h, last_generation);
+	CHECK("update_generation", raw1394_read(h, 0xFFC0, BASE, 4, &value) == 0, "read");
+	raw1394_set_bus_reset_handler(h, on_reset);
 
 	/* The local node: CSR core, configuration ROM, FCP, a registered range. */
 	value = htonl(0x1);

@@ -168,6 +168,8 @@ def test_exercise_program_under_valgrind(cache: Path, tmp_path: Path) -> None:
         "fcp handler",
         "read own ARM range",
         "async_stream",
+        "stale generation fails",
+        "update_generation",
         "read from a dead node fails",
         "reset after the death",
     ):
