@@ -48,6 +48,21 @@ static int on_reset(raw1394handle_t h, unsigned int generation)
 	return 0;
 }
 
+static int arm_calls;
+static struct raw1394_arm_reqhandle arm_handle;
+
+/* The written quadlet, as the request carried it, and the answer sent for it. */
+static int on_arm(raw1394handle_t h, struct raw1394_arm_request_response *both,
+		  unsigned int length, void *context, byte_t type)
+{
+	(void)h;
+	if (type == RAW1394_ARM_WRITE && length == 4 && both->request->buffer_length == 4 &&
+	    both->request->buffer[0] == 0x5E && both->response->response_code == 0 &&
+	    both->request->destination_offset == ARM_START + 4)
+		++*(int *)context;
+	return 0;
+}
+
 /* Notes the reset but keeps the old generation, as a program that does not call
  * raw1394_update_generation. */
 static int on_reset_kept(raw1394handle_t h, unsigned int generation)
@@ -235,14 +250,31 @@ int main(void)
 	raw1394_write(h, raw1394_get_local_id(h), CSR_REGISTER_BASE + CSR_FCP_COMMAND, 4, &value);
 	CHECK("fcp handler", serve_until(h, &fcp_seen, 1, 10) == 0, "fcp %d", fcp_seen);
 	CHECK("stop_fcp_listen", raw1394_stop_fcp_listen(h) == 0, "stop");
-	CHECK("arm_register", raw1394_arm_register(h, ARM_START, 16, (byte_t *)block, 0,
-						   RAW1394_ARM_READ | RAW1394_ARM_WRITE, 0, 0) == 0,
+	arm_handle.arm_callback = on_arm;
+	arm_handle.pcontext = &arm_calls;
+	CHECK("arm_register", raw1394_arm_register(h, ARM_START, 16, (byte_t *)block,
+						   (octlet_t)(unsigned long)&arm_handle,
+						   RAW1394_ARM_READ | RAW1394_ARM_WRITE |
+							   RAW1394_ARM_LOCK,
+						   RAW1394_ARM_WRITE, 0) == 0,
 	      "arm");
+	CHECK("arm_register overlap refused", raw1394_arm_register(h, ARM_START + 8, 16, NULL, 0,
+								   RAW1394_ARM_READ, 0, 0) < 0,
+	      "overlap accepted");
 	value = htonl(0x5EED5EED);
 	CHECK("write own ARM range", raw1394_write(h, raw1394_get_local_id(h), ARM_START + 4, 4,
 						   &value) == 0, "arm write");
 	CHECK("arm_get_buf", raw1394_arm_get_buf(h, ARM_START + 4, 4, &old) == 0 && old == value,
 	      "0x%08x", ntohl(old));
+	CHECK("arm notification", arm_calls == 1, "%d calls", arm_calls);
+	CHECK("lock own ARM range", raw1394_lock(h, raw1394_get_local_id(h), ARM_START + 8,
+						 RAW1394_EXTCODE_FETCH_ADD, htonl(5), 0, &old) == 0 &&
+		      old == block[2] && raw1394_arm_get_buf(h, ARM_START + 8, 4, &value) == 0 &&
+		      ntohl(value) == ntohl(block[2]) + 5, "old 0x%08x", ntohl(old));
+	value = htonl(0xFEED);
+	CHECK("arm_set_buf", raw1394_arm_set_buf(h, ARM_START + 12, 4, &value) == 0 &&
+		      raw1394_read(h, raw1394_get_local_id(h), ARM_START + 12, 4, &old) == 0 &&
+		      old == value, "0x%08x", ntohl(old));
 	CHECK("read own ARM range", raw1394_read(h, raw1394_get_local_id(h), ARM_START, 4,
 						 &value) == 0 && value == block[0], "0x%08x",
 	      ntohl(value));
