@@ -172,9 +172,9 @@ class NodeServices:
         data = getattr(packet, "data", b"")
         if tcode == TCode.write_quadlet_request:
             data = packet.quadlet_data.to_bytes(4, "big")  # type: ignore[attr-defined]
-        length = getattr(packet, "data_length", 4) if tcode != TCode.lock_request else len(data)
-        if tcode in (TCode.write_block_request,):
-            length = len(data)
+        # Bytes asked for (a block read), or carried (writes, locks); a quadlet read asks 4.
+        block_read = tcode == TCode.read_block_request
+        length = packet.data_length if block_read else len(data) or 4  # type: ignore[attr-defined]
         incoming = Incoming(
             tcode,
             packet.source_id,  # type: ignore[attr-defined]

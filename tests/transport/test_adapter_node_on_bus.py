@@ -96,6 +96,8 @@ def test_a_host_reads_the_adapters_rom_and_a_range_a_program_answers() -> None:
             assert header >> 24 == 4
             name = other.read_quadlet(adapter, CSR + 0x404, generation=generation)
             assert name == int.from_bytes(b"1394", "big")
+            block = other.read_block(adapter, CSR + 0x400, 20, generation=generation)
+            assert block[:8] == header.to_bytes(4, "big") + b"1394"
             # STATE_SET then STATE_CLEAR, read back through STATE_CLEAR.
             other.write_quadlet(adapter, CSR + 0x004, 0x300, generation=generation)
             other.write_quadlet(adapter, CSR + 0x000, 0x100, generation=generation)
