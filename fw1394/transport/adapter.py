@@ -60,7 +60,8 @@ from fw1394.transport.adapter_protocol import (
 from fw1394.transport.adapter_services import NodeServices, is_request
 from fw1394.transport.bus_host import BusError, BusHost, StaleGenerationError
 from fw1394.transport.config import BusConfig
-from fw1394.transport.link import ACK, ACK_BYTES, ACK_SIZE, ASYNC_PACKET, RequesterLink
+from fw1394.transport.copies import HostLink
+from fw1394.transport.link import ACK, ACK_BYTES, ACK_SIZE, ASYNC_PACKET
 from fw1394.transport.membership import Timing
 from fw1394.transport.observe import BusView, watch
 from fw1394.transport.procs import die_with_parent
@@ -107,8 +108,8 @@ class Client:
     version: int | None = None
 
 
-class AdapterLink(RequesterLink):
-    """The requester's link, which first hands raw sends the answers meant for them."""
+class AdapterLink(HostLink):
+    """The host's link, which first hands raw sends the answers meant for them."""
 
     def __init__(self, host: BusHost) -> None:
         super().__init__(host.requester, host.station.send, host.station)
