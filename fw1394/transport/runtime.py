@@ -24,6 +24,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from fw1394.errors import UsageError
 from fw1394.transport.config import check_bus_name
 from fw1394.transport.procs import process_alive
 
@@ -97,7 +98,7 @@ class MemberFile:
                 remove_member(self._path)
 
 
-class RuntimeRootError(OSError):
+class RuntimeRootError(UsageError, OSError):
     """The runtime root is not a private directory of this user: someone else could
     have made it, or can see or change what is in it."""
 

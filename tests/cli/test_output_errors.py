@@ -116,6 +116,7 @@ def test_offline_commands(
         assert (status, err) == (2, FULL + "\n"), argv
 
 
+@pytest.mark.process
 def test_a_closed_pipe_is_one_line(trace: Path) -> None:
     command = [sys.executable, "-m", "fw1394.cli.main", "dissect", str(trace), "-v"]
     with subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE) as process:
