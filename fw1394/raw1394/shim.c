@@ -592,7 +592,7 @@ static int dispatch(raw1394handle_t h, const struct reply *r)
 		raw1394_errcode_t code = p->errcode;
 
 		free(p);
-		return h->tag_handler(h, tag, code);
+		return h->tag_handler ? h->tag_handler(h, tag, code) : 0;
 	}
 }
 
