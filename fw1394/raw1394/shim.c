@@ -949,6 +949,9 @@ static void drop_connection(raw1394handle_t h)
 	}
 	h->in_length = 0;
 	h->watch = h->fcp = 0;
+	/* Isochronous state belongs to the connection too. */
+	free(h->iso.packet);
+	memset(&h->iso, 0, sizeof h->iso);
 }
 
 int raw1394_set_port(raw1394handle_t handle, int port)
@@ -1071,7 +1074,8 @@ void raw1394_destroy_handle(raw1394handle_t handle)
 {
 	if (!handle)
 		return;
-	raw1394_iso_shutdown(handle);
+	if (handle->sock >= 0)
+		raw1394_iso_shutdown(handle);
 	drop_connection(handle);
 	close(handle->epoll);
 	close(handle->event);
