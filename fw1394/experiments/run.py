@@ -7,7 +7,6 @@ import platform
 import time
 from dataclasses import dataclass, field
 
-import fw1394
 from fw1394.experiments import baseline
 from fw1394.experiments.baseline import Baseline
 from fw1394.experiments.bench_targets import Target
@@ -30,6 +29,7 @@ from fw1394.experiments.timing import SWITCH_WARMUP, cpu_split, pin
 from fw1394.transport.config import BusConfig
 from fw1394.transport.idle import default_idle
 from fw1394.transport.media import medium_name
+from fw1394.version import __version__
 
 #: Rounds the baseline and the quadlet figures alternate in.
 ROUNDS = 10
@@ -62,7 +62,7 @@ def machine_info(pinned: bool) -> dict[str, object]:
         "cpus": os.cpu_count(),
         "python": platform.python_version(),
         "system": f"{platform.system()} {platform.release()}",
-        "fw1394": fw1394.__version__,
+        "fw1394": __version__,
         "pinned": pinned,
         "load_average_before": [round(v, 2) for v in os.getloadavg()],
         # How every process of the run waited for frames (the echo included).
