@@ -92,6 +92,7 @@ def _sleeper(name: str, phy: int, pipe: multiprocessing.connection.Connection) -
     medium.close()
 
 
+@pytest.mark.process
 def test_a_sleeper_is_woken_by_a_frame_for_it_and_only_by_that() -> None:
     config = BusConfig(bus_name("shm-bell"), key=b"")
     sender = SharedMedium(config)
