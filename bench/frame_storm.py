@@ -33,6 +33,7 @@ from fw1394.transport.bus_host import BusError, TransactionError
 from fw1394.transport.bus_port import BusPort
 from fw1394.transport.config import BusConfig
 from fw1394.transport.launch import LaunchedBus
+from fw1394.transport.media import BusMedium, open_medium
 from fw1394.transport.medium import Medium
 from fw1394.transport.membership import Timing
 from fw1394.transport.procs import process_alive
@@ -44,7 +45,10 @@ TIMING = Timing(heartbeat=0.05, lease=0.5)
 OFFSET = 0x40
 
 
-def throw(medium: Medium, frame: bytes) -> None:
+def throw(medium: BusMedium, frame: bytes) -> None:
+    if not isinstance(medium, Medium):
+        medium.send(frame)  # one ring: every member's link looks at every frame
+        return
     has_destination = len(frame) > DESTINATION_OFFSET
     where = medium.destinations[frame[DESTINATION_OFFSET]] if has_destination else None
     with contextlib.suppress(BlockingIOError):  # a full queue: lost, as on a wire
@@ -91,7 +95,7 @@ def run(keyed: bool, frames: int, nodes: int, check_every: int, seed: int) -> di
     ):
         bus.wait_members()
         started = {record.pid for record in bus.records()}
-        thrower = Medium(bus.member_config)
+        thrower = open_medium(bus.member_config)
         deaths = 0
         began = time.monotonic()
         try:
