@@ -654,12 +654,15 @@ class SharedMedium:
     def receive(self) -> bytes | None:
         """The next frame, or None when the poll interval passes without one."""
         frame = self._next()
+        if self._selected:
+            # Whoever selects waits in select: readiness can be stale (the frames
+            # that rang were for others), and a wait here would starve its sockets.
+            self._ready_for_select()
+            return frame
         if frame is None:
             frame = self._wait(self._limit())
         elif self.idle.window and frame[KIND_OFFSET] < _FIRST_CONTROL_KIND:
             self._last = time.monotonic()
-        if self._selected:
-            self._ready_for_select()
         return frame
 
     def receive_queued(self) -> bytes | None:
