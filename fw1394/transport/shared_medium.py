@@ -88,6 +88,7 @@ from fw1394.transport.idle import (
     cores_enough,
     set_receive_timeout,
 )
+from fw1394.transport.procs import process_alive
 from fw1394.transport.wire import (
     CONTROL_KINDS,
     DESTINATION_OFFSET,
@@ -204,16 +205,6 @@ def _exclusive(fd: int) -> Iterator[None]:
         yield
     finally:
         fcntl.flock(fd, fcntl.LOCK_UN)
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
 
 
 def _align(size: int) -> int:
@@ -361,7 +352,7 @@ class SharedMedium:
             owner = _OWNER.unpack_from(self._mm, _OWNER_AT)[0]
             if owner == 0 and looks < OWNERLESS_LOOKS:
                 return
-            if owner != 0 and _alive(owner):
+            if owner != 0 and process_alive(owner):
                 return
             _OWNER.pack_into(self._mm, _RECOVERIES_AT, (recoveries + 1) & 0xFFFF_FFFF)
             _OWNER.pack_into(self._mm, _OWNER_AT, 0)
