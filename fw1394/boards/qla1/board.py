@@ -26,6 +26,7 @@ from collections.abc import Callable, Sequence
 from fw1394.boards.qla1 import rt_blocks as rt
 from fw1394.boards.qla1.channels import MotorChannel
 from fw1394.boards.qla1.config_rom import CSR_BYTE_MASK, CsrSpace, build_config_rom, in_csr_window
+from fw1394.boards.qla1.eth_phy import MdioWindow, mdio_channel
 from fw1394.boards.qla1.hub import HubBlock, HubState, reporting_board
 from fw1394.boards.qla1.phy_window import PhyInterface
 from fw1394.boards.qla1.prom import ConfigProm, qla_prom_with_serial, with_fpga_serial
@@ -114,6 +115,8 @@ class Qla1Board:
         # The PROMs keep their contents through a reboot.
         self.prom = with_fpga_serial(ConfigProm(), f"FPGA 1394-{board_id:02d}")
         self.qla_prom = qla_prom_with_serial(f"QLA 1394-{board_id:02d}")
+        # FPGA V3's two Ethernet PHYs, by channel (1, 2); the chips outlive a reboot too.
+        self.mdio = {channel: MdioWindow() for channel in (1, 2)} if fpga_version == 3 else {}
         self._power_up()
         # Readers look attributes up on each call, so they survive a reboot's fresh state.
         self._board_readers = self._board_register_readers()
@@ -279,6 +282,8 @@ class Qla1Board:
             if index == QLA_PROM_RESULT:
                 return self.qla_prom.result
             return self.qla_prom.buffer_read(index - QLA_PROM_BUFFER)
+        if space == Space.ETH and (window := self.mdio.get(mdio_channel(index) or 0)):
+            return window.read()
         return self._unmapped(index)
 
     def _write_index(self, index: int, value: int) -> None:
@@ -287,6 +292,8 @@ class Qla1Board:
             self._write_main(index, value)
         elif space == Space.HUB and index == HUB_QUERY:
             self._broadcast_query(value)
+        elif space == Space.ETH and (window := self.mdio.get(mdio_channel(index) or 0)):
+            window.write(value)
         elif space == Space.PROM_QLA:
             if index == QLA_PROM_COMMAND:
                 self.qla_prom.command(value)

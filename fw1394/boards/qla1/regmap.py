@@ -329,6 +329,30 @@ PROM = Group(
     ),
 )
 
+ETHERNET_PHYS = Group(
+    "ethernet",
+    (
+        Register(
+            "MDIO_PHY1",
+            0x41A0,
+            "rw",
+            0,
+            "`{busy 26..24 (0), last register 20..16, its data 15..0}`",
+            "clause-22 frame: start, operation (10 read, 01 write), PHY address, register, data",
+            label="MDIO (PHY1, FPGA V3)",
+        ),
+        Register(
+            "MDIO_PHY2",
+            0x42A0,
+            "rw",
+            0,
+            "as PHY1",
+            "as PHY1",
+            label="MDIO (PHY2, FPGA V3)",
+        ),
+    ),
+)
+
 CSR = Group(
     "csr",
     (
@@ -347,7 +371,7 @@ CSR = Group(
 
 REGISTER_MAP = RegisterMap(
     "qla1",
-    (BOARD, CHANNEL, HUB, PROM, CSR),
+    (BOARD, CHANNEL, HUB, PROM, ETHERNET_PHYS, CSR),
     decodings={FIREWIRE: FIREWIRE_DECODING, ETHERNET: ETHERNET_DECODING},
     probe="HARDWARE_VERSION",
 )
