@@ -172,7 +172,14 @@ BOARD = Group(
             "V1 0x00000000, V2 0x80000000, V3 0x40B00000",
             "ignored (no error flags to clear)",
         ),
-        Register("DALLAS_STATUS", B.DALLAS_STATUS, "ro", 0, "0", "ignored"),
+        Register(
+            "DALLAS_STATUS",
+            B.DALLAS_STATUS,
+            "rw",
+            None,
+            "firmware ≥ 7: DS2505 status (enabled, reset answered, family 0x0B once read)",
+            "`address << 16 \\| 2` reads 256 bytes into 0x6000, `3` the next 256",
+        ),
         Register("IO_EXPANDER", B.IO_EXPANDER, "ro", 0, "0", "ignored"),
         Register(
             "GIT_DESCRIPTION",
@@ -329,6 +336,20 @@ PROM = Group(
     ),
 )
 
+DALLAS = Group(
+    "dallas",
+    (
+        Register(
+            "DALLAS_BUFFER",
+            0x6000,
+            "ro",
+            None,
+            "firmware ≥ 7: the 256 bytes of the DS2505 the last control word fetched",
+            count=64,
+        ),
+    ),
+)
+
 ETHERNET_PHYS = Group(
     "ethernet",
     (
@@ -371,7 +392,7 @@ CSR = Group(
 
 REGISTER_MAP = RegisterMap(
     "qla1",
-    (BOARD, CHANNEL, HUB, PROM, ETHERNET_PHYS, CSR),
+    (BOARD, CHANNEL, HUB, PROM, DALLAS, ETHERNET_PHYS, CSR),
     decodings={FIREWIRE: FIREWIRE_DECODING, ETHERNET: ETHERNET_DECODING},
     probe="HARDWARE_VERSION",
 )
