@@ -30,6 +30,8 @@ from fw1394.boards.qla1.dallas import BUFFER_BASE as DALLAS_BUFFER_BASE
 from fw1394.boards.qla1.dallas import FIRST_FIRMWARE as DALLAS_FIRST_FIRMWARE
 from fw1394.boards.qla1.dallas import Ds2505
 from fw1394.boards.qla1.eth_phy import MdioWindow, mdio_channel
+from fw1394.boards.qla1.eth_switch import FIRST_FIRMWARE as SWITCH_FIRST_FIRMWARE
+from fw1394.boards.qla1.eth_switch import switch_data, switch_index
 from fw1394.boards.qla1.hub import HubBlock, HubState, reporting_board
 from fw1394.boards.qla1.phy_window import PhyInterface
 from fw1394.boards.qla1.prom import ConfigProm, qla_prom_with_serial, with_fpga_serial
@@ -289,6 +291,10 @@ class Qla1Board:
             return self.qla_prom.buffer_read(index - QLA_PROM_BUFFER)
         if space == Space.ETH and (window := self.mdio.get(mdio_channel(index) or 0)):
             return window.read()
+        if space == Space.ETH and self.mdio and self.firmware >= SWITCH_FIRST_FIRMWARE:
+            position = switch_index(index)
+            if position is not None:
+                return switch_data(position)
         if space == Space.DALLAS and self.firmware >= DALLAS_FIRST_FIRMWARE:
             return self.dallas.buffer_read(index - DALLAS_BUFFER_BASE)
         return self._unmapped(index)

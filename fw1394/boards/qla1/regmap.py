@@ -354,6 +354,14 @@ ETHERNET_PHYS = Group(
     "ethernet",
     (
         Register(
+            "ETH_SWITCH_DATA",
+            0x40A0,
+            "ro",
+            None,
+            "firmware ≥ 9, FPGA V3: the switch's status block, 'ESW0' first (0 before)",
+            count=32,
+        ),
+        Register(
             "MDIO_PHY1",
             0x41A0,
             "rw",
