@@ -27,6 +27,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol, TypeVar
 
+from fw1394.errors import BusUnreachable
 from fw1394.transport.bus_host import StaleGenerationError
 from fw1394.transport.wire import NO_BOARD, MemberInfo
 
@@ -36,7 +37,7 @@ T = TypeVar("T")
 _ATTEMPTS = 4
 
 
-class BoardNotOnBusError(LookupError):
+class BoardNotOnBusError(BusUnreachable, LookupError):
     """No member of the bus has that board ID now (or more than one has)."""
 
 

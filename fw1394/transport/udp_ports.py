@@ -21,13 +21,15 @@ import struct
 from dataclasses import dataclass
 from pathlib import Path
 
+from fw1394.errors import Error
+
 PROC = Path("/proc")
 WILDCARD = "0.0.0.0"
 #: Longest command line shown in a message.
 COMMAND_SHOWN = 100
 
 
-class PortInUseError(OSError):
+class PortInUseError(Error, OSError):
     """A UDP address another socket already holds (one line for the user)."""
 
 
