@@ -7,10 +7,11 @@ import os
 import sys
 from typing import TYPE_CHECKING
 
-from fw1394.cli.common import CliError, integer
+from fw1394.cli.common import WRITE_ERRNOS, CliError, integer
 
 if TYPE_CHECKING:
     from fw1394.capture.formats.sources import PortTally
+    from fw1394.capture.views.dissection import Outcome
 
 EPILOG = """\
 formats (detected, or named with --format):
@@ -174,6 +175,7 @@ def run(args: argparse.Namespace) -> int:
         from fw1394.capture.views.dissection import Dissection, Options
         from fw1394.capture.views.trace_plots import (
             PlotError,
+            check_plot_path,
             plot_latency,
             plot_size,
             require_matplotlib,
@@ -197,6 +199,22 @@ def run(args: argparse.Namespace) -> int:
         parent = os.path.dirname(target) or "."
         if not os.path.isdir(parent):
             raise CliError(f"{option} {target}: directory {parent} does not exist")
+        try:
+            check_plot_path(target)
+        except PlotError as error:
+            raise CliError(f"{option} {error}") from None
+    for node in args.node:
+        if not 0 <= node <= 0xFFFF:
+            raise CliError(
+                f"--node {node} is not a node: give a PHY ID 0..63 or a node ID such as 0xffc2"
+            )
+    for option, seconds in (("--since", args.since), ("--until", args.until)):
+        if seconds is not None and not seconds >= 0:
+            raise CliError(f"{option} {seconds:g}: give seconds after the first record, 0 or more")
+    if args.since is not None and args.until is not None and args.since > args.until:
+        raise CliError(
+            f"--since {args.since:g} is after --until {args.until:g}: no record can be in between"
+        )
     if args.threads < 1:
         raise CliError("--threads must be at least 1")
     if not 0 < args.port < 65536:
@@ -242,9 +260,11 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(str(error)) from None
     except MemoryError:
         raise CliError("out of memory") from None
-    except BrokenPipeError:
-        raise  # output closed early (| head): main() ends quietly
-    except (OSError, ValueError, RuntimeError, IndexError, KeyError) as error:
+    except OSError as error:
+        if error.errno not in WRITE_ERRNOS:
+            raise CliError(f"{name}: {error.strerror or error}") from None
+        raise  # the output's failure, reported once for every command
+    except (ValueError, RuntimeError, IndexError, KeyError) as error:
         # The readers turn bad input into messages; reaching here is a bug in fw1394.
         problem = f"{type(error).__name__}: {error}"
         raise CliError(f"{name}: internal error ({problem}); please report it") from None
@@ -261,11 +281,12 @@ def run(args: argparse.Namespace) -> int:
         )
     if not outcome.records:
         return _nothing_read(name, fmt, args.port, ports)
-    if display_filter is not None and not outcome.shown:
+    chosen = _selection(args)
+    if chosen and args.view in ("packets", "transactions") and not outcome.shown:
         what = "transaction" if args.view == "transactions" else "record"
         print(
-            f"fw1394: {name}: no {what} matched -Y {args.display_filter!r} "
-            f"({outcome.records} records read)",
+            f"fw1394: {name}: no {what} matched {chosen} ({outcome.records} records read"
+            f"{_span(outcome)})",
             file=sys.stderr,
         )
     title = os.path.basename(path) if path != sources.STDIN else "stdin"
@@ -277,6 +298,28 @@ def run(args: argparse.Namespace) -> int:
     except PlotError as error:
         raise CliError(str(error)) from None
     return 0
+
+
+def _selection(args: argparse.Namespace) -> str:
+    """The options that choose rows, as the user gave them."""
+    parts = [f"--node {node}" for node in args.node]
+    parts += [f"--tcode {tcode}" for tcode in args.tcode]
+    if args.since is not None:
+        parts.append(f"--since {args.since:g}")
+    if args.until is not None:
+        parts.append(f"--until {args.until:g}")
+    if args.display_filter is not None:
+        parts.append(f"-Y {args.display_filter!r}")
+    return " ".join(parts)
+
+
+def _span(outcome: Outcome) -> str:
+    """What the trace held that a selection could have matched: its nodes and length."""
+    nodes = sorted(outcome.nodes_seen)
+    text = f", spanning {outcome.duration_s:.6g} s" if outcome.duration_s is not None else ""
+    if nodes:
+        text += "; nodes in it: " + ", ".join(f"{n} (0x{0xFFC0 | n:04x})" for n in nodes)
+    return text
 
 
 _FORMAT_NAMES = {"kernel": "Linux kernel firewire text", "nosy": "nosy-dump records"}

@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from fw1394.capture.formats.record import RecordType
+from fw1394.errors import UsageError
 from fw1394.packets import AckCode, ExtendedTCode, RCode, Retry, Speed, TCode
 
 #: Nanoseconds per duration unit.
@@ -97,7 +98,7 @@ PACKET_ONLY = frozenset({"retry", "priority", "extended_tcode", "channel", "tag"
 PACKET_ONLY |= {"speed", "record_type", "sender"}
 
 
-class FilterError(ValueError):
+class FilterError(UsageError):
     """A bad display filter: ``position`` is the offending token's offset in the text."""
 
     def __init__(self, message: str, position: int, text: str) -> None:

@@ -20,13 +20,13 @@ from typing import TextIO
 
 import numpy as np
 
-from fw1394.capture.analysis.batch import Batch
 from fw1394.capture.analysis.columns import Decoded, decode
 from fw1394.capture.analysis.rom_collect import RomCollector
 from fw1394.capture.analysis.rom_decode import report_lines
 from fw1394.capture.analysis.stats import Stats
 from fw1394.capture.analysis.transactions import Pairer, Transactions
 from fw1394.capture.formats import sources
+from fw1394.capture.formats.batch import Batch
 from fw1394.capture.formats.record import RecordType
 from fw1394.capture.views.filter_columns import packet_columns, transaction_columns
 from fw1394.capture.views.packet_view import PACKET_CSV, PacketFormatter
@@ -68,6 +68,8 @@ class Outcome:
     issue_lines: list[str] = field(default_factory=list)
     shown: int = 0  # rows printed by the packet or transaction view
     cut_short: bool = False  # the input ended in the middle of a record
+    nodes_seen: set[int] = field(default_factory=set)  # PHY IDs, kept when rows are chosen
+    duration_s: float | None = None  # first to last record
 
 
 def decoded_batches(
@@ -176,6 +178,8 @@ class Dissection:
         if self.origin_ns is None:
             self.origin_ns = int(batch.ts_ns[0])
         outcome.records += len(batch)
+        if self.selecting:
+            self._note_span(batch, decoded)
         keep = self._packet_filter(batch, decoded)
         if self.options.view == "stats":
             outcome.stats.add_batch(batch, decoded, keep)
@@ -185,6 +189,13 @@ class Dissection:
             self._transactions(self.pairer.feed(batch, decoded), batch)
         self.ordinal += len(batch)
         self._last_ts = int(batch.ts_ns[-1])
+
+    def _note_span(self, batch: Batch, decoded: Decoded) -> None:
+        """What an empty selection's message names: the nodes and time the trace holds."""
+        for column in (decoded.fields["source_id"], decoded.fields["destination_id"]):
+            ids = column[column >= 0] & PHY_ID_MASK
+            self.outcome.nodes_seen.update(int(n) for n in np.unique(ids) if n != PHY_ID_MASK)
+        self.outcome.duration_s = (int(batch.ts_ns[-1]) - (self.origin_ns or 0)) / 1e9
 
     def _packet_filter(self, batch: Batch, decoded: Decoded) -> np.ndarray:
         o = self.options
@@ -294,8 +305,17 @@ class Dissection:
         while resets:
             self._reset_line(resets.popleft())
 
+    @property
+    def selecting(self) -> bool:
+        """Rows are chosen (-Y, --node, --tcode, --since, --until), not all shown."""
+        o = self.options
+        chosen = (o.display_filter, o.since_s, o.until_s)
+        return bool(o.nodes or o.tcodes) or any(value is not None for value in chosen)
+
     def _resets(self, batch: Batch | None) -> deque[tuple[int, int, int]]:
-        if batch is None or self.options.output != "text":
+        # A chosen view shows what matched; a generation change among the
+        # matches still gets its own separator line (_transaction_row).
+        if batch is None or self.options.output != "text" or self.selecting:
             return deque()
         rows = np.flatnonzero(batch.record_type == RecordType.bus_reset)
         return deque(

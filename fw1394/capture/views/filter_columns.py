@@ -12,9 +12,9 @@ from collections.abc import Callable, Iterator, Mapping
 
 import numpy as np
 
-from fw1394.capture.analysis.batch import Batch
 from fw1394.capture.analysis.columns import Decoded, ack_codes
 from fw1394.capture.analysis.transactions import Transactions
+from fw1394.capture.formats.batch import Batch
 from fw1394.capture.views.display_filter import FIELDS
 
 Builder = Callable[[], tuple[np.ndarray, ...]]
