@@ -37,6 +37,8 @@ _unpack_ack = ACK_PAYLOAD.unpack_from
 #: of the same sender is taken for a copy too (it can only be very late).
 WINDOW = 4096
 _MASK = (1 << WINDOW) - 1
+_SEQUENCE = 0xFFFFFFFF
+_HALF = 1 << 31
 
 
 class RecentFrames:
@@ -55,10 +57,12 @@ class RecentFrames:
             self._senders[sender] = (sequence, 1)
             return False
         highest, taken = known
-        if sequence > highest:
-            self._senders[sender] = (sequence, (taken << (sequence - highest) | 1) & _MASK)
+        # Sequence numbers are 32 bits and wrap: compared as serial numbers (RFC 1982).
+        ahead = (sequence - highest) & _SEQUENCE
+        if 0 < ahead < _HALF:
+            self._senders[sender] = (sequence, (taken << ahead | 1) & _MASK)
             return False
-        back = highest - sequence
+        back = (highest - sequence) & _SEQUENCE
         if back >= WINDOW or taken >> back & 1:
             return True
         self._senders[sender] = (highest, taken | 1 << back)

@@ -40,6 +40,23 @@ def word(k: int) -> int:
     )
 )
 def test_a_frame_is_new_exactly_once(frames: list[tuple[int, int]]) -> None:
+    check_once(frames)
+
+
+@given(
+    st.lists(st.integers(0, 3 * WINDOW), max_size=200),
+    st.integers(1, 3 * WINDOW).map(lambda before: 2**32 - before),
+)
+def test_sequence_numbers_wrap(offsets: list[int], base: int) -> None:
+    """The same frames with every sequence number moved by ``base`` (mod 2**32), so
+    that the numbers wrap past 2**32 - 1 to 0 among them."""
+    recent = RecentFrames()
+    model = RecentFrames()
+    for offset in offsets:
+        assert recent.again(7, (base + offset) & 0xFFFFFFFF) == model.again(7, offset)
+
+
+def check_once(frames: list[tuple[int, int]]) -> None:
     recent = RecentFrames()
     taken: set[tuple[int, int]] = set()
     highest: dict[int, int] = {}
