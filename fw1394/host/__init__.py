@@ -4,8 +4,8 @@
 * middle: :class:`Board` (one node, block transfers) and
   :class:`MultiBoard` (several nodes as one robot);
 * bottom: a :class:`Port` moving quadlets and blocks; :class:`LocalPort`
-  drives in-process board emulators, :class:`AdapterPort` a bus's host
-  adapter, and :class:`BoardPort` addresses a bus's boards by board ID.
+  drives in-process board emulators; :class:`BoardPort` addresses boards
+  by the board ID they announce, resolved again after every bus reset.
 
 :class:`PositionLoop` is a small PD servo on top of :class:`RobotIO`.
 """

@@ -103,19 +103,13 @@ class StaleGenerationError(TransactionError):
     """
 
     def __new__(cls, addressed: int, current: int) -> StaleGenerationError:
-        # The engine error's constructor takes the failure event: give it one.
-        stale = super().__new__(cls, _stale(addressed, current))
-        assert isinstance(stale, StaleGenerationError)
-        return stale
+        # The engine error's constructor takes a failure event; this one takes generations.
+        return Exception.__new__(cls)
 
     def __init__(self, addressed: int, current: int) -> None:
         self.addressed, self.current = addressed, current
-        super().__init__(_stale(addressed, current))
-
-
-def _stale(addressed: int, current: int) -> TransactionFailed:
-    detail = f"addressed in generation {addressed}, the bus is in {current}: not sent"
-    return TransactionFailed(0, FailureReason.bus_reset, detail=detail)
+        detail = f"addressed in generation {addressed}, the bus is in {current}: not sent"
+        super().__init__(TransactionFailed(0, FailureReason.bus_reset, detail=detail))
 
 
 class BusHost:

@@ -22,15 +22,34 @@ import tempfile
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
-from fw1394.errors import UsageError
+from fw1394.errors import Error
 from fw1394.transport.config import check_bus_name
 from fw1394.transport.procs import process_alive
 
 if TYPE_CHECKING:
-    from fw1394.transport.seal import DropCounts
     from fw1394.transport.wire import MemberInfo
+
+
+class DropCounts(Protocol):
+    """What a member file reports of a seal's drop counts (``seal.DropCounts`` has it).
+
+    Named here, not imported, because the seal finds its key file through this
+    module: the dependency runs one way.
+    """
+
+    @property
+    def forged(self) -> int: ...
+
+    @property
+    def replayed(self) -> int: ...
+
+    @property
+    def malformed(self) -> int: ...
+
+    @property
+    def total(self) -> int: ...
 
 SUPERVISOR_MODULE = "fw1394.transport.supervisor"
 #: The bus key's file in the bus's directory (fw1394.transport.seal).
@@ -98,7 +117,7 @@ class MemberFile:
                 remove_member(self._path)
 
 
-class RuntimeRootError(UsageError, OSError):
+class RuntimeRootError(Error, OSError):
     """The runtime root is not a private directory of this user: someone else could
     have made it, or can see or change what is in it."""
 
