@@ -146,6 +146,16 @@ def add_run_options(run: argparse.ArgumentParser) -> None:
         help="N worker processes, seeds derived from --seed; remote targets need {worker} "
         "in TARGET (one node each)",
     )
+    rtl = run.add_argument_group("rtl: targets")
+    rtl.add_argument(
+        "--speed",
+        choices=("S100", "S200", "S400", "mixed"),
+        default="S400",
+        help="speed packets are delivered at (mixed: each packet its own; default S400)",
+    )
+    rtl.add_argument(
+        "--sclk-mhz", type=float, default=49.152, metavar="MHZ", help="SCLK of the design"
+    )
     out = run.add_argument_group("inputs and findings")
     out.add_argument("--corpus", action="append", default=[], metavar="FILE", help="seeds")
     out.add_argument("--findings", default="fuzz-findings", metavar="DIR", help="reproducers")
@@ -191,6 +201,8 @@ def settings_of(args: argparse.Namespace) -> Any:
             history=args.history,
             probe_offset=args.probe_offset,
             pid=args.pid,
+            speed=args.speed,
+            sclk_mhz=args.sclk_mhz,
         )
         check(settings)
     except SettingsError as error:
@@ -265,6 +277,7 @@ def run_serve(args: argparse.Namespace) -> int:
     from fw1394.fuzz.serve import ServeError, TunnelNode, loopback_address
     from fw1394.fuzz.settings import Settings, SettingsError, default_policy
     from fw1394.fuzz.targets import check
+    from fw1394.transport.udp_ports import PortInUseError, refuse_taken_port
 
     if args.parent_pid is not None:
         from fw1394.transport.procs import die_with_parent
@@ -279,6 +292,10 @@ def run_serve(args: argparse.Namespace) -> int:
     if args.duration is not None and args.duration <= 0:
         raise CliError("--duration must be positive")
     policy = CONTRACTS[args.policy or default_policy(args.board)]
+    try:
+        refuse_taken_port(*address)
+    except PortInUseError as error:
+        raise CliError(str(error)) from None
     try:
         node = TunnelNode(
             address,

@@ -38,6 +38,22 @@ from fw1394.packets.nodeid import BROADCAST_PHY
 READBACK_LIMIT = 512
 _ACCEPTED = frozenset({AckCode.ack_complete, AckCode.ack_pending})
 _STOPPING = frozenset({"liveness", "process"})
+#: Why the contract drops a packet without a trace: such a packet must not touch a
+#: register either (the ``side-effect`` oracle).
+_DROPPED = frozenset(
+    {
+        "undecodable",
+        "not-a-request",
+        "other-bus",
+        "other-node",
+        "unsupported-tcode",
+        "bad-header-crc",
+        "bad-length",
+        "bad-data-crc",
+    }
+)
+#: Register accesses named in a side-effect finding, at most.
+_EFFECTS_NAMED = 4
 #: Writes remembered to name in a sweep finding, and named at most.
 _WRITES_KEPT = 64
 _WRITES_NAMED = 4
@@ -108,6 +124,10 @@ class Trial:
         self.learned = LearnedRegisters(model.quadlet_index) if reference.kind is None else None
         self._swept_after = 0  # the write count when the last sweep began
         self._other = 0  # the last other node read, as an offset from the target's
+        # Registers the node writes by itself (rtl: port maps may name them): what a
+        # read of them returns is the node's business, not the model's.
+        owned = getattr(target, "owned", None)
+        self._owned: frozenset[int] = owned() if owned is not None else frozenset()
 
     # -- driving ------------------------------------------------------------------------
     def case(self, raw: bytes, label: str = "") -> list[Violation]:
@@ -191,6 +211,11 @@ class Trial:
         expected = [
             expect(sent.wire.packet, sent.wire.damaged, now, raw=sent.wire.raw) for sent in batch
         ]
+        if self._owned:
+            expected = [
+                (reply, Certainty.header) if self._reads_owned(sent.wire.packet) else (reply, c)
+                for sent, (reply, c) in zip(batch, expected, strict=True)
+            ]
         if self.target.needs_fence and batch:
             visibility = self.target.visibility
             if is_silent(visible(expected[-1][0], visibility)):
@@ -215,6 +240,7 @@ class Trial:
         if any(sent.role == "probe" for sent in batch):
             found += self._process_check()
         found += self._interface_check()
+        found += self._effect_check(batch, [reply for reply, _ in expected])
         if any(v.oracle in _STOPPING for v in found):
             self.broken = True
         return found
@@ -236,6 +262,47 @@ class Trial:
             Violation("interface", line.split(":")[0], "the PHY-link interface rules kept", line)
             for line in take()
         ]
+
+    def _reads_owned(self, packet: AsyncPacket | None) -> bool:
+        if not isinstance(packet, (QuadletReadRequest, BlockReadRequest)):
+            return False
+        quadlets = 1
+        if isinstance(packet, BlockReadRequest):
+            quadlets = max(1, (packet.data_length + 3) // 4)
+        first = packet.offset & 0xFFFF if self.model.quadlet_index else packet.offset >> 2
+        return any(first <= index < first + quadlets for index in self._owned)
+
+    def _effect_check(self, batch: list[_Sent], expected: list[Reply]) -> list[Violation]:
+        # Targets that watch the design's register strobes (rtl:) report the accesses
+        # each packet caused: one the contract drops must cause none.
+        take = getattr(self.target, "side_effects", None)
+        if take is None:
+            return []
+        found = []
+        node_id, policy = self.reference.node_id, self.reference.policy
+        for sent, reply, effects in zip(batch, expected, take(), strict=False):
+            if not is_silent(reply):
+                continue
+            packet = sent.wire.packet
+            reason = silence_reason(packet, sent.wire.damaged, node_id, policy)
+            if reason not in _DROPPED:
+                continue
+            self.checks["side-effect"] += 1
+            if not effects:
+                continue
+            what = "write" if any(kind == "write" for kind, _, _ in effects) else "read"
+            accesses = ", ".join(_access(*effect) for effect in effects[:_EFFECTS_NAMED])
+            if len(effects) > _EFFECTS_NAMED:
+                accesses += f" and {len(effects) - _EFFECTS_NAMED} more"
+            found.append(
+                Violation(
+                    "side-effect",
+                    f"{reason}:{family(packet)}:{what}",
+                    f"no register access ({reason}: dropped)",
+                    accesses,
+                )
+            )
+        return found
 
     # -- oracles ------------------------------------------------------------------------
     def _judge(
@@ -446,3 +513,7 @@ def _after_writes(offsets: list[int]) -> str:
 def _offset_text(packet: AsyncPacket | None) -> str:
     offset = getattr(packet, "offset", None)
     return "" if offset is None else f" at {offset:#x}"
+
+
+def _access(kind: str, index: int, data: int | None) -> str:
+    return f"register {index:#x} read" if data is None else f"register {index:#x} <- {data:#010x}"

@@ -15,6 +15,11 @@ transaction ends. Clients come and go without the bus noticing.
 ``send`` puts a client's packet on the bus as it is, malformed or not (the
 adapter's frame header names the adapter as sender, so answers come back to
 it), and reports the ack and the response that came back for it.
+
+A connection starts with ``hello`` (the protocol version), and every request
+runs only in the bus generation it was addressed in: one from an earlier
+generation is answered ``stale`` and never sent, since its physical ID may
+belong to another node now (``docs/host-adapter.md``).
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ import signal
 import socket
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import FrameType
@@ -38,18 +44,24 @@ from fw1394.packets.ack import ack_code
 from fw1394.packets.enums import AckCode
 from fw1394.packets.tcodes import RESPONSE_TCODES
 from fw1394.transport.adapter_protocol import (
+    CHOSEN,
     NONE,
+    STALE,
+    VERSIONS,
     FrameBuffer,
     Op,
     ProtocolError,
     Reply,
     Request,
     Status,
+    choose_version,
     parse_request,
 )
-from fw1394.transport.bus_host import BusError, BusHost
+from fw1394.transport.adapter_services import NodeServices, is_request
+from fw1394.transport.bus_host import BusError, BusHost, StaleGenerationError
 from fw1394.transport.config import BusConfig
-from fw1394.transport.link import ACK, ACK_BYTES, ACK_SIZE, ASYNC_PACKET, RequesterLink
+from fw1394.transport.copies import HostLink
+from fw1394.transport.link import ACK, ACK_BYTES, ACK_SIZE, ASYNC_PACKET
 from fw1394.transport.membership import Timing
 from fw1394.transport.observe import BusView, watch
 from fw1394.transport.procs import die_with_parent
@@ -92,17 +104,24 @@ class RawSend:
 class Client:
     sock: socket.socket
     frames: FrameBuffer = field(default_factory=FrameBuffer)
+    #: The protocol version agreed in ``hello``; None before it.
+    version: int | None = None
 
 
-class AdapterLink(RequesterLink):
-    """The requester's link, which first hands raw sends the answers meant for them."""
+class AdapterLink(HostLink):
+    """The host's link, which first hands raw sends the answers meant for them."""
 
     def __init__(self, host: BusHost) -> None:
         super().__init__(host.requester, host.station.send, host.station)
         self.raw: dict[int, RawSend] = {}  # by the frame sequence number it went out in
+        #: Requests other nodes address to the adapter's own node go here.
+        self.on_request: Callable[[FrameHeader, bytes], None] | None = None
 
     def take(self, header: FrameHeader, payload: bytes, now: float) -> None:
         if self.raw and self._for_raw(header, payload):
+            return
+        if header.kind == ASYNC_PACKET and self.on_request is not None and is_request(payload):
+            self.on_request(header, payload)
             return
         super().take(header, payload, now)
 
@@ -136,7 +155,7 @@ class AdapterHost(BusHost):
 
     def __init__(self, config: BusConfig, **kw: object) -> None:
         super().__init__(config, **kw)  # type: ignore[arg-type]
-        self.link = link = AdapterLink(self)
+        self.link = self.adapter_link = link = AdapterLink(self)
         #: Raw sends waiting for their answers, by frame sequence number.
         self.raw = link.raw
         self.link.on_reset = self._on_reset
@@ -198,6 +217,8 @@ class Adapter:
         #: Transactions of clients that left before they ended: their ends are dropped.
         self.orphans: set[int] = set()
         self.stopping = False
+        self.services = NodeServices(self)
+        host.adapter_link.on_request = self.services.from_bus
 
     def close(self) -> None:
         for sock in self.clients:
@@ -217,6 +238,7 @@ class Adapter:
             except InterruptedError:
                 continue
             host.serve()
+            self.services.after_serve()
             if self.listener in readable:
                 self._accept()
             for sock in readable:
@@ -235,8 +257,10 @@ class Adapter:
         self.clients[sock] = Client(sock)
 
     def _drop(self, client: Client) -> None:
-        self.clients.pop(client.sock, None)
+        if self.clients.pop(client.sock, None) is None:
+            return
         client.sock.close()
+        self.services.dropped(client)
         self.orphans |= {t for t, p in self.pending.items() if p[0] is client}
         self.pending = {t: p for t, p in self.pending.items() if p[0] is not client}
         raw = self.host.raw
@@ -255,6 +279,10 @@ class Adapter:
             bodies = client.frames.feed(data)
             for body in bodies:
                 request = parse_request(body)
+                if client.version is None:
+                    if not self._greet(client, request):
+                        return
+                    continue
                 try:
                     self._handle(client, request)
                 except Exception as error:  # one client's request never ends the bus's adapter
@@ -284,6 +312,23 @@ class Adapter:
         except OSError:
             self._drop(client)
 
+    def _greet(self, client: Client, request: Request) -> bool:
+        """The first request of a connection: ``hello``; False if the client was dropped."""
+        spoken = ", ".join(str(v) for v in sorted(VERSIONS))
+        version = choose_version(request) if request.op is Op.hello else None
+        if version is None:
+            if request.op is Op.hello:
+                detail = f"no protocol version in common: this adapter speaks {spoken}"
+            else:
+                detail = f"the first request must be hello (this adapter speaks version {spoken})"
+            self._reply(client, Reply(request.request, Status.refused, detail=detail))
+            self._drop(client)
+            return False
+        client.version = version
+        chosen = CHOSEN.build({"version": version})
+        self._reply(client, Reply(request.request, Status.ok, data=chosen))
+        return True
+
     # -- requests ---------------------------------------------------------------------
     def _handle(self, client: Client, request: Request) -> None:
         host = self.host
@@ -293,10 +338,24 @@ class Adapter:
                 table = pack_table(host.members)
                 self._reply(client, Reply(request.request, Status.ok, data=table))
                 return
-            if request.op is Op.send:
-                self._send(client, request)
-                return
-            tid = self._start(request)
+            if request.op is Op.hello:
+                raise ValueError("hello comes once, first")
+            # Pinned: a request whose generation has ended is never sent (its
+            # physical ID may be another node's now).
+            with host.addressed_in(request.generation):
+                if request.op is Op.send:
+                    self._send(client, request)
+                    return
+                if self.services.handle(client, request):
+                    return
+                tid = self._start(request)
+        except StaleGenerationError as error:
+            addressed = STALE.pack(request.generation)
+            stale = Reply(
+                request.request, Status.stale, detail=error.failure.detail, data=addressed
+            )
+            self._reply(client, stale)
+            return
         except (ValueError, BusError) as error:
             self._reply(client, Reply(request.request, Status.refused, detail=str(error)))
             return

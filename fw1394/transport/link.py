@@ -33,6 +33,7 @@ from fw1394.engine import Requester, Responder
 from fw1394.engine.fast_requester import FastEnds
 from fw1394.engine.fast_responder import FastResponder
 from fw1394.engine.responder import Reply, decode_received
+from fw1394.errors import BusUnreachable
 from fw1394.packets import AckCode, AsyncPacket
 from fw1394.packets.accessors import TLABEL
 from fw1394.packets.ack import ack_code
@@ -62,7 +63,7 @@ _clock = time.monotonic
 _tlabel = TLABEL.of_bytes
 
 
-class BusRefusedError(RuntimeError):
+class BusRefusedError(BusUnreachable):
     """The coordinator would not take this member (the bus already has 63)."""
 
 

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from itertools import count
 from pathlib import Path
 
+from fw1394.errors import UsageError
 from fw1394.packets.frame import (
     FRAME_COUNTER_FORMAT,
     FRAME_HEADER_SPANS,
@@ -48,7 +49,7 @@ _COUNTER = FRAME_COUNTER_FORMAT
 _WINDOW_MASK = (1 << REPLAY_WINDOW) - 1
 
 
-class BusKeyError(ValueError):
+class BusKeyError(UsageError):
     """A key file or variable that does not hold a usable bus key."""
 
 

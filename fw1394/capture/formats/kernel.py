@@ -20,9 +20,9 @@ from collections.abc import Iterator
 from dataclasses import replace
 from typing import TextIO
 
-from fw1394.capture.analysis import batch as batches
-from fw1394.capture.analysis.batch import Batch
+from fw1394.capture.formats import batch as batches
 from fw1394.capture.formats import kernel_ohci, kernel_trace
+from fw1394.capture.formats.batch import Batch
 from fw1394.capture.formats.containers import Issue
 from fw1394.capture.formats.record import BusRecord, RecordType
 

@@ -15,6 +15,7 @@ import struct
 from dataclasses import dataclass, replace
 
 from fw1394.capture.formats.record import SPEED_UNKNOWN, BusRecord, Direction, RecordType
+from fw1394.errors import PacketError
 from fw1394.packets import LAYOUTS, TCode
 from fw1394.packets.accessors import DESTINATION_ID, SELF_ID_PHY, SOURCE_ID, TCODE
 from fw1394.packets.nodeid import phy_of
@@ -43,7 +44,7 @@ KNOWN |= {"bus_reset_initiate", "bus_reset_schedule", "bus_reset_postpone"}
 KNOWN |= {"async_phy_outbound_complete"}
 
 
-class TraceLineError(ValueError):
+class TraceLineError(PacketError):
     """A firewire tracepoint line whose fields do not make sense."""
 
 
