@@ -60,7 +60,7 @@ MILLISECOND = TICKS_PER_SECOND // 1000
 STEP_TICKS = 12_288  # the board's physics grid
 #: When the demo's four transactions come in its cycle (s): read of the 7-axis
 #: board, read of the 4-axis board, write of each ("Where a cycle goes" in
-#: docs/performance.md).
+#: docs/performance/history.md).
 TRANSACTION_TIMES = (0.0, 0.00016, 0.00033, 0.00039)
 WRITE_AFTER_READ = TRANSACTION_TIMES[2] - TRANSACTION_TIMES[0]
 

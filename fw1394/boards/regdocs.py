@@ -20,6 +20,7 @@ from pathlib import Path
 
 from fw1394.boards.registry import board_kind
 from fw1394.boards.regmap import markdown_table
+from fw1394.errors import UsageError
 
 _BLOCK = re.compile(
     r"(?P<open><!-- registers (?P<kind>\S+) (?P<group>\S+) (?P<header>\S+)"
@@ -28,7 +29,7 @@ _BLOCK = re.compile(
 )
 
 
-class RegisterDocError(ValueError):
+class RegisterDocError(UsageError):
     """A marked table names a kind or group the registry does not have."""
 
 
@@ -54,18 +55,33 @@ def tables(text: str) -> int:
     return len(_BLOCK.findall(text))
 
 
+USAGE = "usage: python -m fw1394.boards.regdocs FILE.md ... (for instance docs/boards/*.md)"
+
+
 def main(paths: list[str]) -> int:
+    if not paths:
+        print(f"regdocs: no document named; {USAGE}", file=sys.stderr)
+        return 2
     for name in paths:
         path = Path(name)
-        text = path.read_text(encoding="utf-8")
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as error:
+            print(f"regdocs: {name}: cannot read it ({error})", file=sys.stderr)
+            return 2
         try:
             new = render(text)
         except RegisterDocError as error:
             print(f"{name}: {error}", file=sys.stderr)
             return 2
-        if new != text:
+        count = tables(text)
+        if not count:
+            print(f"{name}: no register tables (marked <!-- registers KIND GROUP HEADER -->)")
+        elif new != text:
             path.write_text(new, encoding="utf-8")
-            print(f"{name}: register tables rewritten")
+            print(f"{name}: register tables rewritten ({count})")
+        else:
+            print(f"{name}: {count} register tables already match their maps")
     return 0
 
 

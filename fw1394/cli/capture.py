@@ -25,7 +25,8 @@ if TYPE_CHECKING:
 EPILOG = """\
 examples:
   fw1394 capture -w trace.pcapng                    bus "default", until Ctrl-C
-  fw1394 capture --bus arm -w arm.pcapng --duration 10
+  fw1394 capture --name arm -w arm.pcapng --duration 10
+  fw1394 capture -i arm -w - -c 100 -t ud           100 packets (and their acks)
   fw1394 capture --udp --interface eth0 -w boards.pcapng -c 1000
   fw1394 capture -w - | fw1394 dissect -            the trace to standard output
   fw1394 capture -w - | tshark -X lua_script:fw1394.lua -r -
@@ -51,14 +52,37 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument(
         "-w", "--write", required=True, metavar="FILE", help="trace file to write; - for stdout"
     )
-    parser.add_argument("--bus", default=None, help="virtual bus name (default: default)")
+    parser.add_argument(
+        "--name", "--bus", dest="bus", default=None, help="virtual bus name (default: default)"
+    )
     parser.add_argument("--udp", action="store_true", help="capture Eth1394 UDP traffic instead")
     parser.add_argument("--port", type=int, default=1394, help="UDP port (default 1394)")
     parser.add_argument(
-        "--interface", default="lo", help="network interface for --udp (default lo)"
+        "-i",
+        "--interface",
+        default=None,
+        metavar="IFACE",
+        help="as tshark -i: the bus to record (its --name), or with --udp the network "
+        "interface (default lo)",
     )
     parser.add_argument("--duration", type=float, help="stop after this many seconds")
-    parser.add_argument("-c", "--count", type=int, metavar="COUNT", help="stop after COUNT packets")
+    parser.add_argument(
+        "-c",
+        "--count",
+        type=int,
+        metavar="COUNT",
+        help="stop after COUNT packets (acks are not counted; those of the last packets "
+        "are still written)",
+    )
+    parser.add_argument(
+        "-t",
+        "--time-format",
+        choices=("r", "a", "ad", "u", "ud", "e", "d"),
+        default=None,
+        metavar="FORMAT",
+        help="time of each line (as tshark -t): r since the first record, d since the "
+        "previous, a/ad local, u/ud UTC, e seconds since 1970 (default: e in microseconds)",
+    )
     parser.add_argument("-q", "--quiet", action="store_true", help="no line per packet")
     parser.add_argument("--pcap", action="store_true", help="classic pcap instead of pcapng")
     parser.set_defaults(handler=run)
@@ -70,7 +94,13 @@ def run(args: argparse.Namespace) -> int:
     from fw1394.capture.formats.pseudo_header import LINKTYPE_FW1394
 
     if args.udp and args.bus:
-        raise CliError("--bus and --udp are two different captures: choose one")
+        raise CliError("--name and --udp are two different captures: choose one")
+    if not args.udp and args.interface is not None:
+        if args.bus is not None and args.bus != args.interface:
+            raise CliError(f"-i {args.interface} and --name {args.bus}: name the bus once")
+        args.bus = args.interface
+    if args.udp and args.interface is None:
+        args.interface = "lo"
     if args.duration is not None and args.duration <= 0:
         raise CliError("--duration must be positive")
     if args.count is not None and args.count <= 0:
@@ -113,7 +143,7 @@ def run(args: argparse.Namespace) -> int:
         else:
             assert source is not None
             with source:
-                count = live.capture_records(source, writer, limits, show)
+                count = live.capture_records(source, writer, limits, show, _clock(args))
     except live.CaptureError as error:
         raise CliError(str(error)) from None
     except BrokenPipeError:
@@ -129,6 +159,22 @@ def run(args: argparse.Namespace) -> int:
     where = "standard output" if to_stdout else args.write
     print(f"fw1394: {count} packets written to {where}", file=sys.stderr)
     return 0
+
+
+def _clock(args: argparse.Namespace) -> Callable[[int], str] | None:
+    from fw1394.capture.views.time_format import TimeColumn
+
+    if args.time_format is None:
+        return None
+    column = TimeColumn(args.time_format)
+    origin: list[int] = []
+
+    def stamp(ts_ns: int) -> str:
+        if not origin:
+            origin.append(ts_ns)
+        return column.text(ts_ns, origin[0]).strip()
+
+    return stamp
 
 
 def _create(path: str) -> BinaryIO:

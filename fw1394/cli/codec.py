@@ -365,7 +365,9 @@ def _inputs(args: argparse.Namespace) -> Iterator[tuple[str, str]]:
 
 def run_decode(args: argparse.Namespace) -> int:
     status = 0
+    given = 0
     for where, text in _inputs(args):
+        given += 1
         try:
             raw = hex_bytes(text)
             if not raw:
@@ -379,6 +381,12 @@ def run_decode(args: argparse.Namespace) -> int:
         except (CliError, PacketError) as error:
             print(f"fw1394: error: {where}: {error}", file=sys.stderr)
             status = 2
+    if not given:
+        what = "Eth1394 payload" if args.jhu else "packet"
+        raise CliError(
+            f"no {what} on standard input: it was empty or held only blank and # comment lines "
+            "(one packet per line, as hex)"
+        )
     return status
 
 

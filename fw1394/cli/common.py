@@ -3,21 +3,67 @@
 from __future__ import annotations
 
 import argparse
+import errno
 import json
+import os
 import sys
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
 from typing import Any
 
+from fw1394.errors import UsageError
 from fw1394.packets import hextext
 
 
-class CliError(Exception):
+class CliError(UsageError):
     """A problem with the user's input or environment, printed as one line."""
 
 
 def fail(message: str, status: int = 2) -> int:
     print(f"fw1394: error: {message}", file=sys.stderr)
     return status
+
+
+#: Errors of a write that no retry will fix: the reader went away, or the file
+#: system cannot take more.
+WRITE_ERRNOS = frozenset({errno.EPIPE, errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EIO})
+
+
+@contextmanager
+def reported_write_errors() -> Iterator[None]:
+    """Flush standard output at the end of a command (also of ``--help``, which
+    exits), so that a failed write (``> /dev/full``, a full disk under ``-w``) is
+    the command's one-line :class:`CliError` rather than a traceback or an
+    ``Exception ignored`` at interpreter exit. A reader that closed the pipe
+    (``| head``) ends the command quietly: a BrokenPipeError for main()."""
+    try:
+        try:
+            yield
+        except SystemExit:
+            sys.stdout.flush()
+            raise
+        sys.stdout.flush()
+    except OSError as error:
+        if error.errno not in WRITE_ERRNOS:
+            raise
+        _discard_stdout()
+        target = error.filename if error.filename else "standard output"
+        if error.errno == errno.EPIPE and not error.filename:
+            # The reader went away (| head): ending quietly is what it asked for,
+            # as tshark and the shell's own tools do.
+            raise BrokenPipeError(errno.EPIPE, "broken pipe") from None
+        raise CliError(f"cannot write {target}: {os.strerror(error.errno)}") from None
+
+
+def _discard_stdout() -> None:
+    """Point standard output at /dev/null, so that what is still buffered for it
+    is dropped at exit instead of failing a second time."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError):  # no file descriptor behind it (a test's StringIO)
+        pass
 
 
 def integer(text: str) -> int:

@@ -2,8 +2,9 @@
 
 Every module in :mod:`fw1394.cli` that defines ``register(subparsers)`` adds its
 subcommands; a subcommand's handler takes the parsed namespace and returns an
-exit status. Errors meant for the user are raised as :class:`CliError` (or the
-codec's :class:`~fw1394.packets.PacketError`) and printed as one line.
+exit status. Every error the library raises on purpose derives from
+:class:`fw1394.Error`; :func:`main` prints any of them as one line on stderr and
+exits with status 2, here and nowhere else, so commands let them propagate.
 """
 
 from __future__ import annotations
@@ -13,11 +14,14 @@ import importlib
 import pkgutil
 import sys
 from collections.abc import Sequence
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
-import fw1394
-from fw1394.cli.common import CliError, fail
-from fw1394.packets import PacketError
+from fw1394.cli.common import fail, reported_write_errors
+from fw1394.errors import Error
+from fw1394.version import __version__
+
+if TYPE_CHECKING:
+    from _typeshed import SupportsWrite
 
 DESCRIPTION = """\
 fw1394: a wire-level IEEE 1394 (FireWire) protocol toolkit.
@@ -38,6 +42,12 @@ class OneLineParser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:
         text = " ".join(message.split())
         self.exit(2, f"{self.prog}: error: {text} (see {self.prog} --help)\n")
+
+    def _print_message(self, message: str, file: SupportsWrite[str] | None = None) -> None:
+        # argparse drops a failed write of --help silently; let it reach the
+        # command's write-error report instead.
+        if message:
+            (file or sys.stderr).write(message)
 
     def add_subparsers(self, **kwargs: Any) -> Any:
         kwargs.setdefault("parser_class", SubcommandParser)
@@ -62,7 +72,7 @@ def build_parser() -> argparse.ArgumentParser:
         description=DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("--version", action="version", version=f"fw1394 {fw1394.__version__}")
+    parser.add_argument("--version", action="version", version=f"fw1394 {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     package = importlib.import_module("fw1394.cli")
     for module_info in sorted(pkgutil.iter_modules(package.__path__), key=lambda m: m.name):
@@ -77,14 +87,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
-    if args.command is None:
-        parser.print_help()
-        return 0
     try:
-        status: int = args.handler(args)
-    except (CliError, PacketError) as error:
-        return fail(str(error))
+        with reported_write_errors():
+            args = parser.parse_args(argv)
+            if args.command is None:
+                parser.print_help()
+                return 0
+            status: int = args.handler(args)
+    except Error as error:
+        return fail(" ".join(str(error).split()) or type(error).__name__)
     except KeyboardInterrupt:
         print("fw1394: interrupted", file=sys.stderr)
         return 130

@@ -126,7 +126,7 @@ def reference_for(settings: Settings, target: Target) -> Reference:
 
 
 def offsets_for(settings: Settings) -> OffsetModel:
-    model = offset_model(target_kind(settings))
+    model = offset_model(target_kind(settings), quadlet_index=settings.eth1394)
     if settings.probe_offset is None:
         return model
     return OffsetModel(model.registers, model.sweep, settings.probe_offset, model.quadlet_index)

@@ -28,7 +28,8 @@ from fw1394.boards.qla1.regs import (
     BoardRegister,
 )
 from fw1394.jhu.client import HOST_SOURCE_ID, LOCAL_BUS_IDS, MAX_DATAGRAM, EthUdpClient
-from fw1394.jhu.scan import BOARD_ID_MASK, Protocol, ScanResult
+from fw1394.jhu.hub_parse import HubBoard, hub_read_quadlets, split_hub
+from fw1394.jhu.scan import Protocol, ScanResult
 from fw1394.packets import QuadletReadRequest
 from fw1394.packets.eth1394 import BROADCAST_NODE
 from fw1394.packets.eth1394_fast import request_datagram
@@ -55,14 +56,19 @@ class Command:
 
 
 def write_block(board_id: int, firmware: int, command: Command) -> list[int]:
-    """One board's real-time write block (Rev 1-6: the DAC words only)."""
+    """One board's real-time write block (Rev 1-6: the DAC words only).
+
+    Before Rev 8 every DAC command carries the board id in bits 27..24, as the
+    library's write buffer does: that is how a board finds its own commands in
+    a broadcast write.
+    """
     if firmware >= 8:
         return [board_id << 8 | CHANNELS + 2, *command.dac, command.control]
+    tagged = [value & ~(0xF << DAC_BOARD_ID_SHIFT) | board_id << DAC_BOARD_ID_SHIFT
+              for value in command.dac]  # fmt: skip
     if firmware == 7:
-        tagged = [value & ~(0xF << DAC_BOARD_ID_SHIFT) | board_id << DAC_BOARD_ID_SHIFT
-                  for value in command.dac]  # fmt: skip
         return [*tagged, command.control]
-    return list(command.dac)
+    return tagged
 
 
 @dataclass
@@ -81,7 +87,12 @@ class RealTimeLoop:
         self.mask = sum(1 << board.board_id for board in self.boards)
         # Fixed for the run: worked out once, not every cycle.
         self._read_quadlets = [rt.rt_read_quadlets(board.firmware) for board in self.boards]
-        self._hub_size = 4 * (sum(count + 1 for count in self._read_quadlets) + 1)
+        self._hub_boards = [HubBoard(board.board_id, board.firmware) for board in self.boards]
+        # The hub's layout follows the firmware: raises MixedFirmwareError for a broadcast
+        # read over boards of different families, which the host refuses too.
+        self._hub_size = (
+            4 * hub_read_quadlets(self._hub_boards) if self.protocol is Protocol.BC_QRW else 0
+        )
         self._idle_words = [
             write_block(board.board_id, board.firmware, Command()) for board in self.boards
         ]
@@ -118,20 +129,9 @@ class RealTimeLoop:
         return self._split_hub(data)
 
     def _split_hub(self, data: bytes | None) -> dict[int, list[int] | None]:
-        blocks: dict[int, list[int] | None] = {}
-        words = quadlets(data) if data is not None else []
-        position = 0
-        for board, count in zip(self.boards, self._read_quadlets, strict=True):
-            chunk = words[position + 1 : position + 1 + count]
-            header = words[position] if position < len(words) else 0
-            position += count + 1
-            good = (
-                len(chunk) == count
-                and header >> 16 & 0xFF == self.sequence & 0xFF
-                and (chunk[rt.STATUS] & BOARD_ID_MASK) >> 24 == board.board_id
-            )
-            blocks[board.board_id] = chunk if good else None
-        return blocks
+        if data is None:
+            return dict.fromkeys((board.board_id for board in self.boards), None)
+        return split_hub(quadlets(data), self._hub_boards, self.sequence)
 
     # -- writes -------------------------------------------------------------------------
     def write_all(self, commands: dict[int, Command] | None = None) -> bool:
@@ -144,7 +144,12 @@ class RealTimeLoop:
                     words += idle
                 else:
                     words += write_block(board.board_id, board.firmware, command)
-            return self.client.write_block_node(BROADCAST_NODE, 0, pack(words))
+            ok = self.client.write_block_node(BROADCAST_NODE, 0, pack(words))
+            for board in self.boards:
+                if board.firmware < 7:
+                    command = commands.get(board.board_id, Command())
+                    ok &= self._old_control(board.node, command, after_broadcast=True)
+            return ok
         ok = True
         for board in self.boards:
             ok &= self._write_one(board.node, board.board_id, board.firmware, commands)
@@ -158,10 +163,18 @@ class RealTimeLoop:
         ok = self.client.write_block_node(node, 0, pack(words))
         if firmware >= 7:
             return ok
-        # Rev 1-6: control as its own write, and a no-op write to feed the watchdog.
+        return ok & self._old_control(node, command, after_broadcast=False)
+
+    def _old_control(self, node: int, command: Command, *, after_broadcast: bool) -> bool:
+        """Rev 1-6: the control quadlet as its own write (if not zero), and a no-op write
+        to feed the watchdog when no DAC command has its valid bit; after a broadcast
+        write the library skips the no-op if it wrote the control quadlet."""
+        ok = True
         if command.control:
             ok &= self.client.write_quadlet_node(node, BoardRegister.STATUS, command.control)
-        if not any(value & DAC_VALID for value in command.dac):
+        if not any(value & DAC_VALID for value in command.dac) and not (
+            after_broadcast and command.control
+        ):
             ok &= self.client.write_quadlet_node(node, BoardRegister.STATUS, 0)
         return ok
 

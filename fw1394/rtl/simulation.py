@@ -22,6 +22,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from fw1394.errors import Error
 from fw1394.rtl.portmap import HDL_DIR, PortMap, harness_verilog
 
 #: Verdicts never depend on wall time: the PHY model bounds every wait in clock
@@ -33,7 +34,7 @@ STUCK_AFTER = 600.0
 _POLL = 1.0
 
 
-class SimulationError(RuntimeError):
+class SimulationError(Error, RuntimeError):
     """The simulator is missing, failed to build, died or stopped answering."""
 
 

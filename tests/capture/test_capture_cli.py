@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import re
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -13,8 +14,9 @@ import pytest
 from polling import wait_until
 
 from fw1394.capture.analysis.traffic_sim import Scenario, simulate
+from fw1394.capture.formats import batch as batches
 from fw1394.capture.formats import containers
-from fw1394.capture.formats.record import BusRecord
+from fw1394.capture.formats.record import BusRecord, RecordType
 from fw1394.capture.formats.trace_writer import write_trace
 from fw1394.cli import capture as capture_cli
 from fw1394.cli.main import main
@@ -243,3 +245,44 @@ def test_capture_of_a_live_virtual_bus(tmp_path: Path, unique_bus_name: str) -> 
     assert "read_quadlet_request" in out and "packets written" in err
     result = fw1394("dissect", str(path), "--transactions")
     assert result.returncode == 0 and "QR fffff0000400" in result.stdout
+
+
+def test_count_counts_packets_and_keeps_the_last_ones_ack(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    records = list(simulate(60, Scenario(separate_acks=True)))
+    is_ack = [r.record_type == RecordType.ack for r in records]
+    # A packet whose ack follows it, well inside the trace: -c must not cut between them.
+    last = next(i for i in range(20, len(records) - 1) if not is_ack[i] and is_ack[i + 1])
+    count = is_ack[: last + 1].count(False)
+    tap = FakeTap(records)
+    monkeypatch.setattr(capture_cli, "_open_tap", lambda bus: tap)
+    path = tmp_path / "counted.pcapng"
+    argv = ["capture", "-i", "arm", "-w", str(path), "-c", str(count), "-t", "ud"]
+    assert main(argv) == 0
+    out, err = capsys.readouterr()
+    assert f"{count} packets written" in err
+    with open(path, "rb") as stream:
+        written = [
+            batch.record(i)
+            for batch in map(batches.from_fw1394_chunk, containers.read_chunks(stream))
+            for i in range(len(batch))
+        ]
+    assert written == records[: last + 2]  # the COUNTth packet, and its ack
+    # -t ud: every line starts with a UTC date, as tshark -t ud prints it.
+    assert all(
+        re.match(r"\d{4}-\d\d-\d\d \d\d:\d\d:\d\d\.\d{9} g", line) for line in out.splitlines()
+    )
+
+
+def test_the_bus_is_named_by_name_bus_or_i(monkeypatch: pytest.MonkeyPatch) -> None:
+    opened: list[str] = []
+
+    def tap(bus: str) -> FakeTap:
+        opened.append(bus)
+        return FakeTap([])
+
+    monkeypatch.setattr(capture_cli, "_open_tap", tap)
+    for flag in ("--name", "--bus", "-i"):
+        assert main(["capture", flag, "arm", "-w", "/dev/null", "--duration", "0.01", "-q"]) == 0
+    assert opened == ["arm", "arm", "arm"]

@@ -8,6 +8,7 @@ real CLI as a subprocess.
 
 from __future__ import annotations
 
+import os
 import signal
 import subprocess
 import sys
@@ -17,7 +18,8 @@ import pytest
 
 from fw1394.jhu.scan import ScannedBoard, default_protocol, git_suffix
 
-PORT = 21874
+# Two ports per test process (parallel workers each have their own pid).
+PORT = 20_000 + 2 * (os.getpid() % 5_000)
 
 
 def serve(*options: str) -> subprocess.Popen[str]:
@@ -54,6 +56,7 @@ def scan_log(port: int) -> list[str]:
     return result.stderr.splitlines()
 
 
+@pytest.mark.process
 def test_scan_prints_the_library_lines_in_bridge_mode() -> None:
     server = serve("--boards", "2", "--firmware", "8", "--eth1394", f"127.0.0.1:{PORT}")
     try:
@@ -106,6 +109,7 @@ def test_git_description_suffix() -> None:
     assert git_suffix(0x1234567_2) == "? (git-1234567)"
 
 
+@pytest.mark.process
 def test_sigterm_ends_the_server_at_once() -> None:
     server = serve("--eth1394", f"127.0.0.1:{PORT + 1}")
     time.sleep(0.3)

@@ -18,6 +18,7 @@ from fw1394.capture.formats import eth1394_udp as udp
 from fw1394.capture.formats import trace_writer as tracefile
 from fw1394.capture.formats.pcap_writer import LINKTYPE_ETHERNET, PcapngWriter, PcapWriter
 from fw1394.capture.formats.record import BusRecord, RecordType
+from fw1394.errors import Error
 from fw1394.packets import AckCode, AsyncPacket, PacketError, decode, name_of, summary
 from fw1394.packets.ack import ack_code
 
@@ -55,10 +56,12 @@ class Limits:
         return max(0.0, min(POLL_S, self.deadline - time.monotonic()))
 
 
-def record_summary(record: BusRecord) -> str:
-    """One line for the live view of a capture."""
+def record_summary(record: BusRecord, clock: Callable[[int], str] | None = None) -> str:
+    """One line for the live view of a capture; ``clock`` writes its time (default:
+    seconds since the epoch)."""
     kind = record.record_type
-    stamp = f"{record.timestamp_ns / 1e9:.6f} g{record.generation}"
+    when = clock(record.timestamp_ns) if clock is not None else f"{record.timestamp_ns / 1e9:.6f}"
+    stamp = f"{when} g{record.generation}"
     if kind == RecordType.bus_reset:
         return f"{stamp} bus reset, generation {record.generation}"
     if kind == RecordType.ack:
@@ -83,30 +86,51 @@ def record_summary(record: BusRecord) -> str:
     return f"{stamp} {text}"
 
 
+#: After the COUNTth packet, how long a capture waits for acks still on their way.
+ACK_GRACE_S = 0.2
+
+
 def capture_records(
     source: RecordSource,
     writer: PcapngWriter | PcapWriter,
     limits: Limits,
     show: Callable[[str], None] | None = None,
+    clock: Callable[[int], str] | None = None,
 ) -> int:
-    """Write records from ``source`` until ``limits`` say stop; returns how many."""
-    captured = 0
+    """Write records from ``source`` until ``limits`` say stop; returns how many packets.
+
+    ``limits.count`` counts packets, as tshark -c does, not the ack records
+    between them; the acks of the last packets still come along, so a count
+    never cuts a request or a response from its ack.
+    """
+    packets = 0
     flushed = time.monotonic()
-    while not limits.done(captured):
+
+    def keep(record: BusRecord) -> None:
+        tracefile.write_record(writer, record)
+        if show is not None:
+            show(record_summary(record, clock))
+
+    while not limits.done(packets):
         record = source.receive(limits.wait())
         if record is not None:
-            tracefile.write_record(writer, record)
-            captured += 1
-            if show is not None:
-                show(record_summary(record))
+            keep(record)
+            packets += record.record_type != RecordType.ack
         if time.monotonic() - flushed > FLUSH_S:
             writer.flush()
             flushed = time.monotonic()
+    if limits.count is not None and packets >= limits.count and not limits.stop.is_set():
+        grace = time.monotonic() + ACK_GRACE_S
+        while (left := grace - time.monotonic()) > 0:
+            record = source.receive(left)
+            if record is None or record.record_type != RecordType.ack:
+                break  # the next packet: past the count
+            keep(record)
     writer.flush()
-    return captured
+    return packets
 
 
-class CaptureError(RuntimeError):
+class CaptureError(Error, RuntimeError):
     """A capture cannot start (one line for the user)."""
 
 

@@ -10,12 +10,13 @@ from typing import Any
 import numpy as np
 
 from fw1394.capture.analysis.stats import Stats
+from fw1394.errors import Error
 from fw1394.packets import TCode, name_of
 
 INSTALL_HINT = "plots need matplotlib: pip install 'fw1394[plot]' (or pip install matplotlib)"
 
 
-class PlotError(RuntimeError):
+class PlotError(Error, RuntimeError):
     """Plotting is not possible (matplotlib missing, or the file cannot be written)."""
 
 
@@ -28,6 +29,21 @@ def require_matplotlib() -> Any:
     except ImportError:
         raise PlotError(INSTALL_HINT) from None
     return pyplot
+
+
+def check_plot_path(path: str) -> None:
+    """Refuse, before any work, a file name whose extension matplotlib cannot write."""
+    pyplot = require_matplotlib()
+    figure = pyplot.figure()
+    try:
+        formats = figure.canvas.get_supported_filetypes()
+    finally:
+        pyplot.close(figure)
+    extension = path.rpartition(".")[2].lower() if "." in path.rpartition("/")[2] else ""
+    if extension not in formats:
+        known = ", ".join(sorted(formats))
+        given = f"a .{extension} file" if extension else "a file without an extension"
+        raise PlotError(f"{path}: cannot draw {given}; name a .png (or {known})")
 
 
 #: On traces of more than FULL_RANGE_UP_TO transactions the histogram ends at
@@ -99,6 +115,12 @@ def plot_size(stats: Stats, path: str, title: str) -> int:
             alpha=0.4,
             label=name_of(TCode, int(code)),
         )
+    sizes = np.unique(sample.size)
+    if len(sizes) == 1:
+        # One size only: a tick at it, not an axis of fractions around it.
+        only = int(sizes[0])
+        axes.set_xticks([only])
+        axes.set_xlim(only - max(1, only // 2), only + max(1, only // 2))
     axes.set_xlabel("data length (bytes)")
     axes.set_ylabel("transaction time (µs)")
     axes.set_title(f"{title}: time against size")
@@ -114,5 +136,7 @@ def _save(figure: Any, path: str, pyplot: Any) -> None:
         figure.savefig(path, dpi=120)
     except OSError as error:
         raise PlotError(f"cannot write {path}: {error.strerror or error}") from None
+    except ValueError as error:  # a format matplotlib knows but cannot write here
+        raise PlotError(f"cannot write {path}: {error}") from None
     finally:
         pyplot.close(figure)
