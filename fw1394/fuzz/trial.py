@@ -20,7 +20,7 @@ from fw1394.fuzz.judge import Violation, describe, difference, is_silent, visibl
 from fw1394.fuzz.learned import LearnedRegisters
 from fw1394.fuzz.offsets import OffsetModel
 from fw1394.fuzz.reference import Certainty, Reference
-from fw1394.fuzz.target import Observed, Target, TargetCrash, Wire
+from fw1394.fuzz.target import Observation, Observed, Target, TargetCrash, Wire
 from fw1394.fuzz.tunnel import tlabel_of
 from fw1394.packets import (
     AckCode,
@@ -237,6 +237,7 @@ class Trial:
             violation = self._judge(sent, reply, certainty, seen)
             if violation is not None:
                 found.append(violation)
+                found += self._hidden_behind(violation, sent, reply, certainty, seen)
         if any(sent.role == "probe" for sent in batch):
             found += self._process_check()
         found += self._interface_check()
@@ -385,6 +386,21 @@ class Trial:
         if field == "ack":
             field += f":{ack_name(shown.ack)}->{ack_name(seen.ack)}"
         return Violation("reply", f"{kind}:{field}", describe(shown), describe(seen))
+
+    def _hidden_behind(
+        self, violation: Violation, sent: _Sent, reply: Reply, certainty: Certainty, seen: Observed
+    ) -> list[Violation]:
+        # A tenure mismatch is found before the response's fields are compared: a
+        # wrong response in the wrong tenure is two root causes, two findings.
+        if sent.role != "case" or not violation.signature.endswith(":tenure"):
+            return []
+        shown = visible(reply, self.target.visibility)
+        retimed = Observation(seen.ack, seen.response, shown.concatenated)
+        field = difference(shown, retimed, certainty, self.target.visibility, **self._options())
+        if field is None:
+            return []
+        kind = family(sent.wire.packet)
+        return [Violation("reply", f"{kind}:{field}", describe(shown), describe(seen))]
 
     def _judge_sweep(
         self, wire: Wire, field: str | None, shown: Reply, seen: Observed
