@@ -108,6 +108,10 @@ class RtlTarget:
             for ack, response, tenure in answer["replies"]
         ]
 
+    def speed_name_of(self, raw: bytes) -> str:
+        """The speed ``raw`` is delivered at (S100, S200, S400)."""
+        return SPEED_NAMES[self._speed_of(raw)]
+
     def _speed_of(self, raw: bytes) -> int:
         if self.speed != "mixed":
             return SPEED_NAMES.index(self.speed)

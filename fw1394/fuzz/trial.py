@@ -16,6 +16,7 @@ from typing import NamedTuple
 from fw1394.engine import Reply
 from fw1394.engine.responder import decode_received
 from fw1394.fuzz.contract import ack_name, family, silence_reason
+from fw1394.fuzz.coverage import outcome
 from fw1394.fuzz.judge import Violation, describe, difference, is_silent, visible
 from fw1394.fuzz.learned import LearnedRegisters
 from fw1394.fuzz.offsets import OffsetModel
@@ -106,6 +107,8 @@ class Trial:
         self.broken = False
         #: The last case as sent (for the campaign's coverage counts).
         self.last_wire = Wire(b"", None, True)
+        #: What the node gave the last case: silence, ack_complete, ... (for coverage).
+        self.last_outcome = "silence"
         self._tlabel = 0
         self._avoid = -1
         self._cases = 0
@@ -361,6 +364,7 @@ class Trial:
     ) -> Violation | None:
         packet = wire.packet
         kind = family(packet)
+        self.last_outcome = outcome(seen)
         if kind in ("write", "lock"):
             self._write_status = _status(reply, packet, wire.damaged, self.reference)
             if self.learned is not None and packet is not None:
