@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from rtl_support import bad_crc_writes
 
 from fw1394.cli.main import main
 from fw1394.engine import THESIS_FPGA, Responder
@@ -52,7 +53,7 @@ def test_verdicts_do_not_change_when_the_machine_is_loaded() -> None:
         "rtl:thesis",
         defects=("no-second-grant", "bad-crc-write"),
         seed=3,
-        max_cases=40,
+        max_cases=bad_crc_writes(3, 2000)[0] + 5,
         shrink_budget=0,
         speed="mixed",
     )
