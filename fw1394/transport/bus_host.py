@@ -102,6 +102,10 @@ class StaleGenerationError(TransactionError):
     the two generations.
     """
 
+    def __new__(cls, addressed: int, current: int) -> StaleGenerationError:
+        # The engine error's constructor takes a failure event; this one takes generations.
+        return Exception.__new__(cls)
+
     def __init__(self, addressed: int, current: int) -> None:
         self.addressed, self.current = addressed, current
         detail = f"addressed in generation {addressed}, the bus is in {current}: not sent"
