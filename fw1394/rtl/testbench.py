@@ -1,8 +1,8 @@
 """The PHY model for your own cocotb tests: a driver and a monitor on the harness's pins.
 
 In the manner of cocotb-bus drivers and monitors: build your link design with
-the harness wrapper a port map describes (:func:`harness_source` writes it
-beside your sources, top-level ``fw1394_harness``), then in a cocotb test
+the harness wrapper its port map describes (:func:`harness_sources` gives your
+sources and the wrapper, top-level ``fw1394_harness``), then in a cocotb test
 
 * :class:`PhyDriver` plays the PHY: resets the design, runs a bus reset that
   gives it its physical ID, delivers packets at any speed and returns the
@@ -26,15 +26,17 @@ from fw1394.rtl.cocotb_node import SCLK_MHZ, Node
 from fw1394.rtl.phy import SPEED_BITS, Effect, Phy, Reply
 from fw1394.rtl.portmap import SPEED_NAMES, harness_verilog, load
 
-__all__ = ["Effect", "PhyDriver", "PhyMonitor", "Reply", "harness_source"]
+__all__ = ["Effect", "PhyDriver", "PhyMonitor", "Reply", "harness_sources"]
 
 
-def harness_source(portmap: str | Path, directory: Path) -> Path:
-    """Write the harness wrapper of ``portmap`` (a map file or a shipped name) into
-    ``directory``; build it with the map's sources, top-level ``fw1394_harness``."""
+def harness_sources(portmap: str | Path, directory: Path) -> list[Path]:
+    """The sources to build for ``portmap`` (a map file or a shipped name): the map's
+    own, and the harness wrapper written into ``directory`` (top-level
+    ``fw1394_harness``; include directory :data:`~fw1394.rtl.portmap.HDL_DIR`)."""
+    design = load(portmap)
     path = directory / "fw1394_harness.v"
-    path.write_text(harness_verilog(load(portmap)))
-    return path
+    path.write_text(harness_verilog(design))
+    return [*design.sources, path]
 
 
 class PhyDriver:
