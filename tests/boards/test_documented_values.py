@@ -35,7 +35,7 @@ def test_board_registers_at_power_up() -> None:
     board = qla(3, firmware=9)
     assert board.read_quadlet(4) == QLA1
     assert board.read_quadlet(3) == 0x1680  # watchdog: 30 ms in 5.208 us units
-    assert 0x1680 * 256 / 49.152e6 == pytest.approx(0.030, abs=1e-5)
+    assert pytest.approx(0.030, abs=1e-5) == 0x1680 * 256 / 49.152e6
     assert board.read_quadlet(7) == 9  # FIRMWARE_VERSION as built
     assert board.read_quadlet(11) == 0xFFFF_FFFF  # IP_ADDR unassigned
     eth_status = board.read_quadlet(12)
@@ -71,3 +71,16 @@ def test_configuration_rom_bus_info_block() -> None:
             total = ((crc >> 12) ^ (quadlet >> shift)) & 0xF
             crc = ((crc << 4) ^ (total << 12) ^ (total << 5) ^ total) & 0xFFFF
     assert header & 0xFFFF == crc
+
+
+CSR = 0xFFFF_F000_0000  # IEEE 1212 core registers, below the ROM
+
+
+def test_split_timeout_registers_take_one_block_write() -> None:
+    # IEEE 1212: SPLIT_TIMEOUT_HI at 0x018 (seconds, bits 2:0) and SPLIT_TIMEOUT_LO at
+    # 0x01C (eighths of a millisecond, bits 31:19) are adjacent, so one two-quadlet
+    # block write sets both: here 2 s and 1600 units (the power-up value is 0 s and 800).
+    board = qla(2)
+    board.write_block(CSR + 0x018, (2).to_bytes(4, "big") + (1600 << 19).to_bytes(4, "big"))
+    assert board.read_quadlet(CSR + 0x018) & 0x7 == 2
+    assert board.read_quadlet(CSR + 0x01C) >> 19 == 1600

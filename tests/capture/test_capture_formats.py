@@ -187,3 +187,26 @@ def test_detect_refuses_what_it_cannot_read(tmp_path: Path) -> None:
         path.write_bytes(content)
         with pytest.raises(sources.SourceError):
             sources.detect(str(path))
+
+
+def test_concatenated_batches_keep_every_packet_and_its_time() -> None:
+    # Packets of 5, 8 and 12 bytes: the 5-byte one is padded to a quadlet in its
+    # buffer, so the later batches' starts move by the earlier buffers' sizes.
+    chunks = [[b"\x01\x02\x03\x04\x05"], [bytes(range(8)), bytes(range(100, 112))], [b"\xff" * 4]]
+    parts: list[batches.Batch] = []
+    wanted: list[tuple[int, bytes]] = []
+    ordinal = 0
+    for chunk in chunks:
+        records: list[BusRecord] = []
+        for data in chunk:
+            ordinal += 1
+            records.append(BusRecord(1_000 * ordinal, RecordType.async_packet, data))
+            wanted.append((1_000 * ordinal, data))
+        parts.append(batches.from_records(records, list(range(len(records)))))
+    joined = batches.concat(parts)
+    assert [(int(joined.ts_ns[i]), joined.packet(i)) for i in range(len(joined))] == wanted
+
+
+def test_concatenating_nothing_is_an_empty_batch() -> None:
+    joined = batches.concat([])
+    assert len(joined) == 0 and not joined.issues
