@@ -20,7 +20,17 @@ from typing import Any
 import pytest
 
 from fw1394.transport.seal import Sealer, Verifier
-from fw1394.transport.wire import AckPayload, FrameHeader, FrameKind, parse_ack, parse_header
+from fw1394.transport.wire import (
+    AckPayload,
+    FrameError,
+    FrameHeader,
+    FrameKind,
+    MemberInfo,
+    pack_table,
+    parse_ack,
+    parse_header,
+    parse_table,
+)
 
 VECTORS: dict[str, Any] = json.loads(
     (Path(__file__).parent.parent / "vectors" / "bus_frames.json").read_text()
@@ -121,3 +131,13 @@ DOCUMENTED_KINDS = {
 
 def test_frame_kinds_are_the_documented_numbers() -> None:
     assert {int(kind): kind.name for kind in FrameKind} == DOCUMENTED_KINDS
+
+
+@pytest.mark.parametrize("missing", [1, 24, 47])
+def test_a_member_table_cut_short_is_a_frame_error(missing: int) -> None:
+    # docs/virtual-bus.md: a table is its header, then one 24-byte entry per member.
+    members = tuple(MemberInfo(1000 + n, n) for n in range(3))
+    payload = pack_table(members, 1000)
+    assert parse_table(payload) == (1000, members)
+    with pytest.raises(FrameError):
+        parse_table(payload[:-missing])
