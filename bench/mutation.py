@@ -1,18 +1,20 @@
 """Mutation score: plant small defects in the library, one at a time, and count the caught ones.
 
-    python bench/mutation.py                          # every planned module (hours)
+    python bench/mutation.py                          # every plan entry (hours)
     python bench/mutation.py --sample 30              # 30 mutants per plan entry, seeded
     python bench/mutation.py fw1394/transport/seal.py # named modules (their tests by the plan)
     python bench/mutation.py --changed HEAD~1 --budget 600   # what a change touched
     python bench/mutation.py --json                   # one JSON object for scripts
 
-Each module is mutated by cosmic-ray (operators: comparisons, arithmetic,
-boolean and unary operators, numbers, break/continue, exceptions, ...) and the
-test directories that the plan below names for it run against every mutant,
-in-process tests only (``-m "not process"``: a spawned child would import the
-unmutated installed copy or take minutes). A mutant is *killed* when those tests
+Each plan entry's files are mutated by cosmic-ray in one session (operators:
+comparisons, arithmetic, boolean and unary operators, numbers, break/continue,
+exceptions, ...), ``--sample`` draws that many mutants across all of them, and the
+test directories that the plan below names for the entry run against every
+mutant, without the tests that start processes (``-m "not process"``: they take
+minutes per mutant, and a child started from a non-editable install would not
+see the mutant). A mutant is *killed* when those tests
 fail or time out, *survived* when they pass. Survivors are printed with their
-line and diff: each is a missing test or an equivalent mutant, and
+file, line and diff: each is a missing test or an equivalent mutant, and
 ``docs/testing.md`` records the triage. The score is killed / (killed + survived).
 
 The files are mutated in place and restored by cosmic-ray after each mutant: run
