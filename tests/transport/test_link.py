@@ -290,3 +290,33 @@ def test_the_board_clock_counts_from_the_links_epoch(responder_class: type[Respo
     request = QuadletReadRequest(destination_id=NODE_ID, tlabel=1, source_id=HOST_ID, offset=0x40)
     link.take(frame(sequence=1), encode_packet(request), 100.5)
     assert sent and space.clock[-1] == 49_152_000 // 2
+
+
+class _DelayingStation:
+    """A station holding one delayed frame due at ``wake_by``; it counts its services."""
+
+    def __init__(self, wake_by: float) -> None:
+        self.wake_by = wake_by
+        self.serviced: list[float | None] = []
+
+    def service(self, now: float | None = None) -> None:
+        self.serviced.append(now)
+
+    def changes(self) -> list[object]:
+        return []
+
+    def next_deadline(self) -> float:
+        return 10.0
+
+
+def test_the_timers_run_once_a_delayed_frame_is_due_and_not_before() -> None:
+    # Station.wake_by: owners call service() by then, even when no timer of the
+    # membership is due yet (here at 10 s).
+    station = _DelayingStation(wake_by=5.0)
+    link = ResponderLink(Responder(node_id=0xFFFF, space=MemorySpace(16)), lambda k, d, p: None)
+    link.station = cast(Station, station)
+    link.due = 10.0
+    link.keep_timers(4.0)
+    assert station.serviced == []
+    link.keep_timers(6.0)
+    assert station.serviced == [6.0]
