@@ -109,7 +109,8 @@ def changed_files(base: str) -> list[str]:
         cwd=ROOT, capture_output=True, text=True, check=False,
     )  # fmt: skip
     if done.returncode != 0:
-        raise SystemExit(f"mutation: git cannot compare with {base!r}: {done.stderr.strip()}")
+        print(f"mutation: git cannot compare with {base!r}: {done.stderr.strip()}", file=sys.stderr)
+        raise SystemExit(2)
     return [line for line in done.stdout.splitlines() if (ROOT / line).exists()]
 
 
