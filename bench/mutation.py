@@ -1,18 +1,20 @@
 """Mutation score: plant small defects in the library, one at a time, and count the caught ones.
 
-    python bench/mutation.py                          # every planned module (hours)
-    python bench/mutation.py --sample 30              # 30 mutants per module, seeded
+    python bench/mutation.py                          # every plan entry (hours)
+    python bench/mutation.py --sample 30              # 30 mutants per plan entry, seeded
     python bench/mutation.py fw1394/transport/seal.py # named modules (their tests by the plan)
     python bench/mutation.py --changed HEAD~1 --budget 600   # what a change touched
     python bench/mutation.py --json                   # one JSON object for scripts
 
-Each module is mutated by cosmic-ray (operators: comparisons, arithmetic,
-boolean and unary operators, numbers, break/continue, exceptions, ...) and the
-test directories that the plan below names for it run against every mutant,
-in-process tests only (``-m "not process"``: a spawned child would import the
-unmutated installed copy or take minutes). A mutant is *killed* when those tests
+Each plan entry's files are mutated by cosmic-ray in one session (operators:
+comparisons, arithmetic, boolean and unary operators, numbers, break/continue,
+exceptions, ...), ``--sample`` draws that many mutants across all of them, and the
+test directories that the plan below names for the entry run against every
+mutant, without the tests that start processes (``-m "not process"``: they take
+minutes per mutant, and a child started from a non-editable install would not
+see the mutant). A mutant is *killed* when those tests
 fail or time out, *survived* when they pass. Survivors are printed with their
-line and diff: each is a missing test or an equivalent mutant, and
+file, line and diff: each is a missing test or an equivalent mutant, and
 ``docs/testing.md`` records the triage. The score is killed / (killed + survived).
 
 The files are mutated in place and restored by cosmic-ray after each mutant: run
@@ -71,6 +73,7 @@ class ModuleScore:
     killed: int = 0
     survived: int = 0
     incompetent: int = 0  # the mutant could not even be imported or run
+    mutants: int = 0  # all the entry's mutants, of which the sample was drawn
     survivors: list[dict[str, object]] = field(default_factory=list)
 
     @property
@@ -79,9 +82,9 @@ class ModuleScore:
         return self.killed / tried if tried else None
 
 
-def plan_for(paths: list[str]) -> dict[str, tuple[str, ...]]:
-    """Every module file of ``paths`` with the test directories of its plan entry."""
-    chosen: dict[str, tuple[str, ...]] = {}
+def plan_for(paths: list[str]) -> dict[str, tuple[list[str], tuple[str, ...]]]:
+    """Plan entry -> (its module files among ``paths``, the test directories that pin it)."""
+    chosen: dict[str, tuple[list[str], tuple[str, ...]]] = {}
     for wanted in paths:
         target = (ROOT / wanted).resolve()
         entry = next(
@@ -92,9 +95,11 @@ def plan_for(paths: list[str]) -> dict[str, tuple[str, ...]]:
         if entry is None:
             continue
         files = sorted(target.rglob("*.py")) if target.is_dir() else [target]
+        modules = chosen.setdefault(entry, ([], PLAN[entry]))[0]
         for file in files:
-            if file.suffix == ".py" and file.name != "__main__.py":
-                chosen[str(file.relative_to(ROOT))] = PLAN[entry]
+            name = str(file.relative_to(ROOT))
+            if file.suffix == ".py" and file.name != "__main__.py" and name not in modules:
+                modules.append(name)
     return chosen
 
 
@@ -104,17 +109,18 @@ def changed_files(base: str) -> list[str]:
         cwd=ROOT, capture_output=True, text=True, check=False,
     )  # fmt: skip
     if done.returncode != 0:
-        raise SystemExit(f"mutation: git cannot compare with {base!r}: {done.stderr.strip()}")
+        print(f"mutation: git cannot compare with {base!r}: {done.stderr.strip()}", file=sys.stderr)
+        raise SystemExit(2)
     return [line for line in done.stdout.splitlines() if (ROOT / line).exists()]
 
 
-def config(module: str, tests: tuple[str, ...], timeout: float) -> str:
+def config(modules: list[str], tests: tuple[str, ...], timeout: float) -> str:
     command = f'{sys.executable} -m pytest -x -q -p no:cacheprovider -m "not process" ' + " ".join(
         tests
     )
     return (
         "[cosmic-ray]\n"
-        f'module-path = "{module}"\n'
+        f"module-path = {json.dumps(modules)}\n"
         f"timeout = {timeout}\n"
         "excluded-modules = []\n"
         f"test-command = {json.dumps(command)}\n\n"
@@ -133,29 +139,33 @@ def keep_sample(session: Path, sample: int, seed: int) -> int:
     return len(jobs)
 
 
-def score_module(
-    module: str, tests: tuple[str, ...], sample: int, seed: int, timeout: float
+def score_entry(
+    entry: str, modules: list[str], tests: tuple[str, ...], sample: int, seed: int, timeout: float
 ) -> ModuleScore:
-    result = ModuleScore(module)
+    """Mutants of the plan entry's ``modules``, ``sample`` of them drawn across all its files."""
+    result = ModuleScore(entry)
     with tempfile.TemporaryDirectory(prefix="fw1394-mutation-") as scratch:
         cfg, session = Path(scratch) / "cr.toml", Path(scratch) / "session.sqlite"
-        cfg.write_text(config(module, tests, timeout))
+        cfg.write_text(config(modules, tests, timeout))
         tool = [sys.executable, "-m", "cosmic_ray.cli"]
         subprocess.run([*tool, "init", str(cfg), str(session)], cwd=ROOT, check=True)
-        keep_sample(session, sample, seed)
+        result.mutants = keep_sample(session, sample, seed)
         subprocess.run([*tool, "exec", str(cfg), str(session)], cwd=ROOT, check=True)
         with sqlite3.connect(session) as db:
             rows = db.execute(
-                "SELECT r.worker_outcome, r.test_outcome, r.diff, s.start_pos_row,"
-                " s.operator_name FROM work_results r JOIN mutation_specs s USING (job_id)"
+                "SELECT r.worker_outcome, r.test_outcome, r.diff, s.module_path,"
+                " s.start_pos_row, s.operator_name"
+                " FROM work_results r JOIN mutation_specs s USING (job_id)"
             ).fetchall()
-    for worker, outcome, diff, line, operator in rows:
+    for worker, outcome, diff, path, line, operator in rows:
         worker, outcome = worker.lower(), outcome.lower()  # stored as enum names
         if worker != "normal" or outcome == "incompetent":
             result.incompetent += 1
         elif outcome == "survived":
             result.survived += 1
-            result.survivors.append({"line": line, "operator": operator, "diff": diff})
+            result.survivors.append(
+                {"module": path, "line": line, "operator": operator, "diff": diff}
+            )
         else:
             result.killed += 1
     return result
@@ -167,13 +177,14 @@ def report(scores: list[ModuleScore]) -> str:
         shown = "-" if entry.score is None else f"{entry.score:6.1%}"
         lines.append(
             f"{entry.module:48} {shown:>7}  killed {entry.killed:4}  survived {entry.survived:4}"
-            f"  not run {entry.incompetent}"
+            f"  not run {entry.incompetent}  of {entry.mutants} mutants"
         )
         for survivor in entry.survivors:
             diff = "\n".join(
                 "        " + d for d in str(survivor["diff"]).splitlines() if d[:1] in "+-"
             )
-            lines.append(f"    line {survivor['line']} {survivor['operator']}\n{diff}")
+            where = f"{survivor['module']}:{survivor['line']}"
+            lines.append(f"    {where} {survivor['operator']}\n{diff}")
     killed = sum(s.killed for s in scores)
     tried = killed + sum(s.survived for s in scores)
     total = f"{killed / tried:.1%}" if tried else "-"
@@ -187,7 +198,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("modules", nargs="*", help="modules or packages (default: the plan)")
     parser.add_argument("--changed", metavar="REV", help="only library files changed since REV")
-    parser.add_argument("--sample", type=int, default=0, help="mutants per module (0: all)")
+    parser.add_argument("--sample", type=int, default=0, help="mutants per plan entry (0: all)")
     parser.add_argument("--seed", type=int, default=1394, help="seed of the sample")
     parser.add_argument("--timeout", type=float, default=120.0, help="seconds per mutant's run")
     parser.add_argument("--budget", type=float, default=0.0, help="stop after this many seconds")
@@ -203,14 +214,13 @@ def main(argv: list[str] | None = None) -> int:
         print("mutation: no planned library module among " + (" ".join(paths) or "the change"))
         return 0
     started, scores = time.monotonic(), []
-    for index, (module, tests) in enumerate(modules.items(), 1):
+    for index, (entry, (files, tests)) in enumerate(modules.items(), 1):
         if args.budget and time.monotonic() - started > args.budget:
-            print(
-                f"mutation: budget spent, {len(modules) - index + 1} modules left", file=sys.stderr
-            )
+            left = len(modules) - index + 1
+            print(f"mutation: budget spent, {left} plan entries left", file=sys.stderr)
             break
-        print(f"[{index}/{len(modules)}] {module} against {' '.join(tests)}", file=sys.stderr)
-        scores.append(score_module(module, tests, args.sample, args.seed, args.timeout))
+        print(f"[{index}/{len(modules)}] {entry} against {' '.join(tests)}", file=sys.stderr)
+        scores.append(score_entry(entry, files, tests, args.sample, args.seed, args.timeout))
     if args.json:
         print(json.dumps([{**vars(s), "score": s.score} for s in scores], indent=1))
     else:

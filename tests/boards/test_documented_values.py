@@ -70,3 +70,16 @@ def test_configuration_rom_bus_info_block() -> None:
             total = ((crc >> 12) ^ (quadlet >> shift)) & 0xF
             crc = ((crc << 4) ^ (total << 12) ^ (total << 5) ^ total) & 0xFFFF
     assert header & 0xFFFF == crc
+
+
+CSR = 0xFFFF_F000_0000  # IEEE 1212 core registers, below the ROM
+
+
+def test_split_timeout_registers_take_one_block_write() -> None:
+    # IEEE 1212: SPLIT_TIMEOUT_HI at 0x018 (seconds, bits 2:0) and SPLIT_TIMEOUT_LO at
+    # 0x01C (eighths of a millisecond, bits 31:19) are adjacent, so one two-quadlet
+    # block write sets both: here 2 s and 1600 units (the power-up value is 0 s and 800).
+    board = qla(2)
+    board.write_block(CSR + 0x018, (2).to_bytes(4, "big") + (1600 << 19).to_bytes(4, "big"))
+    assert board.read_quadlet(CSR + 0x018) & 0x7 == 2
+    assert board.read_quadlet(CSR + 0x01C) >> 19 == 1600

@@ -20,7 +20,17 @@ from typing import Any
 import pytest
 
 from fw1394.transport.seal import Sealer, Verifier
-from fw1394.transport.wire import AckPayload, FrameHeader, parse_ack, parse_header
+from fw1394.transport.wire import (
+    AckPayload,
+    FrameError,
+    FrameHeader,
+    FrameKind,
+    MemberInfo,
+    pack_table,
+    parse_ack,
+    parse_header,
+    parse_table,
+)
 
 VECTORS: dict[str, Any] = json.loads(
     (Path(__file__).parent.parent / "vectors" / "bus_frames.json").read_text()
@@ -91,3 +101,43 @@ def test_a_verifier_refuses_other_constructions(forge: Any) -> None:
     verifier = Verifier(KEY)
     assert verifier.open(frame + counter + forge(frame + counter)) is None
     assert verifier.dropped.forged == 1
+
+
+@pytest.mark.parametrize("size", [16, 24, 32, 47])
+def test_a_verifier_refuses_a_validly_keyed_mac_on_less_than_a_frame(size: int) -> None:
+    # A sealed frame is at least the 24-byte header and the 24-byte trailer. Bytes
+    # ending in a correct MAC over what precedes them are still no frame when shorter.
+    body = bytes(range(size - 16))
+    raw = body + hashlib.blake2s(body, key=KEY, digest_size=16).digest()
+    verifier = Verifier(KEY)
+    assert not verifier.authentic(raw)
+    assert verifier.open(raw) is None and verifier.dropped.forged == 1
+
+
+#: docs/virtual-bus.md, "Kinds and payloads": the frame kind numbers on the wire.
+DOCUMENTED_KINDS = {
+    1: "async_packet",
+    2: "ack",
+    3: "phy_packet",
+    16: "join",
+    17: "leave",
+    18: "heartbeat",
+    19: "beacon",
+    20: "bus_reset",
+    21: "reset_request",
+    22: "refused",
+}
+
+
+def test_frame_kinds_are_the_documented_numbers() -> None:
+    assert {int(kind): kind.name for kind in FrameKind} == DOCUMENTED_KINDS
+
+
+@pytest.mark.parametrize("missing", [1, 24, 47])
+def test_a_member_table_cut_short_is_a_frame_error(missing: int) -> None:
+    # docs/virtual-bus.md: a table is its header, then one 24-byte entry per member.
+    members = tuple(MemberInfo(1000 + n, n) for n in range(3))
+    payload = pack_table(members, 1000)
+    assert parse_table(payload) == (1000, members)
+    with pytest.raises(FrameError):
+        parse_table(payload[:-missing])
