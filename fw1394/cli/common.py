@@ -32,9 +32,10 @@ WRITE_ERRNOS = frozenset({errno.EPIPE, errno.ENOSPC, errno.EFBIG, errno.EDQUOT, 
 @contextmanager
 def reported_write_errors() -> Iterator[None]:
     """Flush standard output at the end of a command (also of ``--help``, which
-    exits), so that a failed write (``> /dev/full``, a closed pipe, a full disk
-    under ``-w``) is the command's one-line :class:`CliError` rather than a
-    traceback or an ``Exception ignored`` at interpreter exit."""
+    exits), so that a failed write (``> /dev/full``, a full disk under ``-w``) is
+    the command's one-line :class:`CliError` rather than a traceback or an
+    ``Exception ignored`` at interpreter exit. A reader that closed the pipe
+    (``| head``) ends the command quietly: a BrokenPipeError for main()."""
     try:
         try:
             yield
@@ -47,8 +48,10 @@ def reported_write_errors() -> Iterator[None]:
             raise
         _discard_stdout()
         target = error.filename if error.filename else "standard output"
-        if error.errno == errno.EPIPE:
-            raise CliError(f"cannot write {target}: its reader closed it (broken pipe)") from None
+        if error.errno == errno.EPIPE and not error.filename:
+            # The reader went away (| head): ending quietly is what it asked for,
+            # as tshark and the shell's own tools do.
+            raise BrokenPipeError(errno.EPIPE, "broken pipe") from None
         raise CliError(f"cannot write {target}: {os.strerror(error.errno)}") from None
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from fw1394.cli.common import WRITE_ERRNOS, CliError, integer
 
@@ -20,11 +20,14 @@ formats (detected, or named with --format):
   nosy     nosy-dump --output files
   kernel   Linux kernel text: firewire tracepoints, firewire-ohci debug lines
 
-display filter (-Y), with the field names of `fw1394 wireshark-dissector`
-(fw1394.tcode or tcode): == != < <= > >=, && and, || or, ! not, parentheses,
-integers (12, 0x1f), value names (read_quadlet_request, resp_complete,
-ack_pending), durations (100us, 1.5ms). A field missing from a row fails
-every comparison. Fields (docs/dissect.md has more):
+display filter (-Y): Wireshark's language with the field names the Lua
+dissector registers (`fw1394 wireshark-dissector`), so a filter runs in both
+(fw1394.tcode, or tcode for short): == != < <= > >=, && and, || or, ! not,
+parentheses, in {{4, 5, 8..10}}, contains and matches on fw1394.kind and
+fw1394.data, integers (12, 0x1f), value names (read_quadlet_request,
+resp_complete, ack_pending), times in seconds as tshark writes them
+(fw1394.response_time > 0.0002) or with a unit (200us, 1.5ms). A field
+missing from a row fails every comparison. Fields (docs/dissect.md has more):
 {fields}
 
 examples:
@@ -32,6 +35,7 @@ examples:
   fw1394 dissect trace.pcapng --transactions --node 2 --tcode read_block_request
   fw1394 dissect trace.pcapng -Y 'tcode == read_quadlet_request && dst == 0xffc1'
   fw1394 dissect trace.pcapng --transactions -Y 'rcode != resp_complete || latency > 100us'
+  fw1394 dissect trace.pcapng -Y 'fw1394.header_crc.status == 0 || fw1394.response_time > 0.0002'
   fw1394 dissect trace.pcapng -t ud -c 20             first 20 packets, UTC times
   fw1394 capture -w - -c 100 | fw1394 dissect -       from a pipe
   fw1394 dissect dmesg.txt --stats --json
@@ -110,10 +114,45 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     views.add_argument(
         "--rom", dest="view", action="store_const", const="rom", help="decoded configuration ROMs"
     )
-    parser.add_argument("-v", "--verbose", action="store_true", help="every field of every packet")
+    parser.add_argument(
+        "-v", "-V", "--verbose", action="store_true", help="every field of every packet (tshark -V)"
+    )
+    parser.add_argument("-x", "--hex", action="store_true", help="each packet's bytes (tshark -x)")
+    parser.add_argument(
+        "-l", "--line-buffered", action="store_true", help="flush after each packet (tshark -l)"
+    )
     output = parser.add_mutually_exclusive_group()
     output.add_argument("--json", action="store_true", help="one JSON object per line")
     output.add_argument("--csv", action="store_true", help="comma-separated values with a header")
+    output.add_argument(
+        "-T",
+        choices=("text", "fields", "json", "ek"),
+        dest="output_format",
+        metavar="FORMAT",
+        help="as tshark -T: text, fields (with -e), json (one array) or ek (one object a line)",
+    )
+    parser.add_argument(
+        "-e",
+        action="append",
+        default=[],
+        dest="fields",
+        metavar="FIELD",
+        help="with -T fields: a field to print (Wireshark's name, e.g. fw1394.tcode); repeat",
+    )
+    parser.add_argument(
+        "-E",
+        action="append",
+        default=[],
+        dest="field_options",
+        metavar="OPTION",
+        help="with -T fields: separator=C (default a tab), header=y",
+    )
+    parser.add_argument(
+        "-w",
+        "--write",
+        metavar="FILE",
+        help="write the packets shown (-Y ...) to a pcapng trace instead, each with its ack",
+    )
     parser.add_argument(
         "--node", action="append", type=integer, default=[], help="only this node (number or ID)"
     )
@@ -172,7 +211,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         from fw1394.capture.formats import sources
         from fw1394.capture.views.display_filter import DisplayFilter, FilterError
-        from fw1394.capture.views.dissection import Dissection, Options
+        from fw1394.capture.views.dissection import Dissection, Options, pair_links
         from fw1394.capture.views.trace_plots import (
             PlotError,
             check_plot_path,
@@ -227,9 +266,54 @@ def run(args: argparse.Namespace) -> int:
             display_filter = DisplayFilter(args.display_filter, args.view)
         except FilterError as error:
             raise CliError(str(error)) from None
+    links = None
+    if display_filter is not None and args.view == "packets":
+        from fw1394.capture.views.display_filter import LINK_FIELDS
+
+        linked = sorted(display_filter.fields & LINK_FIELDS)
+        if linked and path == sources.STDIN:
+            raise CliError(
+                f"-Y on {', '.join(linked)} pairs the whole trace before showing a packet: "
+                "give a file, not standard input (or filter --transactions)"
+            )
+        if linked:
+            fmt = sources.detect(path) if args.format == "auto" else args.format
+            try:
+                links = pair_links(
+                    sources.jobs(path, fmt, sources.PortTally((args.port,))),
+                    True if args.verify_crc else None,
+                    args.threads,
+                )
+            except sources.SourceError as error:
+                raise CliError(str(error)) from None
+    output, fields, separator, header = _output_format(args)
+    if output == "fields":
+        from fw1394.capture.views.display_filter import LINK_FIELDS, field_name
+
+        for name in fields:
+            if field_name(name) is None:
+                raise CliError(
+                    f"-e {name}: unknown field (fw1394 dissect --help lists them; "
+                    "Wireshark's names such as fw1394.tcode or frame.number)"
+                )
+        if links is None and {field_name(n) for n in fields} & LINK_FIELDS:
+            if path == sources.STDIN:
+                raise CliError("-e on frame links pairs the whole trace first: give a file")
+            fmt = sources.detect(path) if args.format == "auto" else args.format
+            links = pair_links(
+                sources.jobs(path, fmt, sources.PortTally((args.port,))), None, args.threads
+            )
+        if header:
+            print(separator.join(fields))
+    writer = _trace_writer(args)
     options = Options(
         view=args.view,
-        output="json" if args.json else "csv" if args.csv else "text",
+        output=output,
+        fields=tuple(fields),
+        separator=separator,
+        hex_dump=args.hex,
+        flush_each=args.line_buffered,
+        writer=writer,
         verbose=args.verbose,
         nodes=frozenset(args.node),
         tcodes=tcode_values(args.tcode),
@@ -241,6 +325,7 @@ def run(args: argparse.Namespace) -> int:
         display_filter=display_filter,
         count=args.count,
         time_format=args.time_format,
+        links=links,
     )
     name = "standard input" if path == sources.STDIN else path
     ports = sources.PortTally((args.port,))
@@ -255,7 +340,12 @@ def run(args: argparse.Namespace) -> int:
         else:
             fmt = sources.detect(path) if args.format == "auto" else args.format
             jobs = sources.jobs(path, fmt, ports)
-        outcome = Dissection(options, sys.stdout).run(jobs)
+        if output == "json-array":
+            outcome = _json_array(Dissection, options, jobs)
+        else:
+            outcome = Dissection(options, sys.stdout).run(jobs)
+        if writer is not None:
+            writer.close()
     except sources.SourceError as error:
         raise CliError(str(error)) from None
     except MemoryError:
@@ -298,6 +388,66 @@ def run(args: argparse.Namespace) -> int:
     except PlotError as error:
         raise CliError(str(error)) from None
     return 0
+
+
+def _output_format(args: argparse.Namespace) -> tuple[str, list[str], str, bool]:
+    """The output kind (text, json, csv, fields, json-array), -e fields, -E options."""
+    kind = args.output_format
+    if args.fields and kind != "fields":
+        raise CliError("-e names fields of -T fields: add -T fields")
+    if args.field_options and kind != "fields":
+        raise CliError("-E sets options of -T fields: add -T fields")
+    separator, header = "\t", False
+    for option in args.field_options:
+        key, _, value = option.partition("=")
+        if key == "separator" and value:
+            named = {"/t": "\t", "/s": " ", "\\t": "\t"}
+            separator = named.get(value, value)
+        elif key == "header" and value in ("y", "n"):
+            header = value == "y"
+        else:
+            raise CliError(f"-E {option}: use separator=C or header=y|n")
+    if kind == "fields":
+        if not args.fields:
+            raise CliError("-T fields needs at least one -e FIELD (e.g. -e frame.number)")
+        if args.view != "packets":
+            raise CliError("-T fields prints packets: drop --" + args.view)
+        return "fields", list(args.fields), separator, header
+    if kind == "json":
+        return "json-array", [], separator, header
+    if kind == "ek" or args.json:
+        return "json", [], separator, header
+    return ("csv" if args.csv else "text"), [], separator, header
+
+
+def _trace_writer(args: argparse.Namespace) -> Any:
+    """-w FILE: a pcapng writer in fw1394's link type, or None."""
+    if args.write is None:
+        return None
+    if args.view != "packets":
+        raise CliError("-w saves packets: drop --" + args.view)
+    if args.write == "-" and sys.stdout.isatty():
+        raise CliError("-w -: standard output is a terminal; pipe it or name a file")
+    from fw1394.capture.formats.pcap_writer import PcapngWriter
+    from fw1394.capture.formats.pseudo_header import LINKTYPE_FW1394
+
+    try:
+        stream = sys.stdout.buffer if args.write == "-" else open(args.write, "wb")  # noqa: SIM115
+    except OSError as error:
+        raise CliError(f"-w {args.write}: {error.strerror or error}") from None
+    return PcapngWriter(stream, LINKTYPE_FW1394, description="fw1394 dissect -w")
+
+
+def _json_array(dissection: Any, options: Any, jobs: Any) -> Any:
+    """tshark -T json: the packets' objects as one JSON array."""
+    import io
+
+    buffer = io.StringIO()
+    options.output = "json"
+    outcome = dissection(options, buffer).run(jobs)
+    rows = buffer.getvalue().splitlines()
+    sys.stdout.write("[\n" + ",\n".join(f"  {row}" for row in rows) + ("\n]\n" if rows else "]\n"))
+    return outcome
 
 
 def _selection(args: argparse.Namespace) -> str:

@@ -19,7 +19,13 @@ from fw1394.capture.views import display_filter as df
 from fw1394.cli.main import main
 from fw1394.packets import AckCode, QuadletWriteRequest, RCode, TCode, WriteResponse, encode
 
-FIELD_NAMES = sorted(df.FIELDS)
+#: Numeric fields of every kind (the text and byte fields kind and data have tests of
+#: their own; the pseudo-header's and the CRCs' are more of the same).
+FIELD_NAMES = sorted(
+    name
+    for name, info in df.FIELDS.items()
+    if info.text is None and not name.startswith(("ph.", "phy.", "data_crc"))
+)
 
 
 def literal_for(name: str) -> st.SearchStrategy[df.Literal]:
@@ -151,8 +157,12 @@ def test_values_of_names_and_units() -> None:
         ("(tcode == 4", "", "missing )"),
         ("tcode == 4 5", "5", "expected && or ||"),
         ("rcode != resp_bogus", "resp_bogus", "not a rcode name"),
-        ("latency > 100", "100", "unit"),
-        ("latency > 100parsecs", "100parsecs", "unit"),
+        ("latency > 100parsecs", "100parsecs", "needs a time"),
+        ("tcode contains 4", "contains", "works on text and byte fields"),
+        ("kind > 3", ">", "kind is text"),
+        ('kind matches "("', '"("', "not a regular expression"),
+        ("tcode in {4, 5", "", "missing }"),
+        ("tcode in {}", "}", "empty set"),
         ("tlabel == 0xzz", "0", "not an integer"),
         ("4 == 5", "4", "compare a field"),
         ("tcode == $", "$", "unexpected character"),
@@ -168,9 +178,33 @@ def test_errors_point_at_the_token(text: str, token: str, words: str) -> None:
     assert "\n" not in str(error)
 
 
+def test_times_are_seconds_as_tshark_writes_them_or_carry_a_unit() -> None:
+    for text, nanoseconds in (("100", 100_000_000_000), ("0.0002", 200_000), ("1.5ms", 1_500_000)):
+        tree = df.parse(f"fw1394.response_time > {text}")
+        assert isinstance(tree, df.Compare) and tree.right == df.Literal(nanoseconds, text)
+
+
+def test_sets_ranges_and_text_tests() -> None:
+    assert df.parse("tcode in {4, 5 6..8}") == df.parse(
+        "tcode == 4 || tcode == 5 || (tcode >= 6 && tcode <= 8)"
+    )
+    kind = df.parse('fw1394.kind contains "quadlet"')
+    assert kind == df.TextTest("contains", df.Field("kind"), "quadlet")
+    data = df.parse("fw1394.data contains 0a:0b")
+    assert data == df.TextTest("contains", df.Field("data"), b"\x0a\x0b")
+    names = np.array(["read_quadlet_request", None, "write_response"], dtype=object)
+    blocks = np.array([None, b"\x00\x0a\x0b", b"\x0a"], dtype=object)
+    columns = {"kind": (names,), "data": (blocks,)}
+    assert df.evaluate(kind, columns, 3).tolist() == [True, False, False]
+    assert df.evaluate(data, columns, 3).tolist() == [False, True, False]
+    regex = df.parse('kind matches "response$"')
+    assert df.evaluate(regex, columns, 3).tolist() == [False, False, True]
+    assert df.evaluate(df.parse("!data"), columns, 3).tolist() == [True, False, False]
+
+
 def test_view_checks() -> None:
-    with pytest.raises(df.FilterError, match="transaction view"):
-        df.DisplayFilter("tcode == 4 || latency > 1us", "packets")
+    with pytest.raises(df.FilterError, match="packet view"):
+        df.DisplayFilter('kind contains "read"', "transactions")
     with pytest.raises(df.FilterError, match="packet view"):
         df.DisplayFilter("channel == 3", "transactions")
 
@@ -323,7 +357,7 @@ def test_bad_filter_is_one_line_exit_2(eth1394: Path, capsys: pytest.CaptureFixt
     assert captured.out == ""
     lines = captured.err.splitlines()
     assert len(lines) == 1 and "'&'" in lines[0] and "character 14" in lines[0]
-    assert main(["dissect", str(eth1394), "-Y", "latency > 1us"]) == 2
-    assert "transaction view" in capsys.readouterr().err
+    assert main(["dissect", str(eth1394), "--transactions", "-Y", "sender == 1"]) == 2
+    assert "packet view" in capsys.readouterr().err
     assert main(["dissect", str(eth1394), "--stats", "-Y", "tcode == 4"]) == 2
     assert "-Y filters the packet and transaction views" in capsys.readouterr().err

@@ -32,11 +32,7 @@ pytestmark = [
 WIRESHARK_OWN = {"frame": "frame.number", "time": "frame.time_relative"}
 #: Lua fields with no -Y counterpart, and why.
 LUA_ONLY = {
-    r"fw1394\.ph\.(version|header_length|flags\..*|ack|observer|reserved)": "trace framing",
-    r"fw1394\.phy\..*": "PHY packets: dissect shows them, -Y filters asynchronous fields",
-    r"fw1394\.(header_crc|data_crc)(\.status|\.valid)?": "CRC quadlets and their checks",
-    r"fw1394\.(request_in|response_in)": "frame links: dissect --transactions pairs instead",
-    r"fw1394\.(data|kind|reserved|ack_parity)": "raw bytes and names shown in the tree",
+    r"fw1394\.phy\.(?!check).*": "PHY packets' own fields: dissect -v shows them",
     r"fw1394\.(.*\.bad|.*\.error|malformed|response\.(missing|unmatched|tcode_mismatch))": (
         "expert info"
     ),

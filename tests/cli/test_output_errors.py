@@ -117,7 +117,8 @@ def test_offline_commands(
 
 
 @pytest.mark.process
-def test_a_closed_pipe_is_one_line(trace: Path) -> None:
+def test_a_closed_pipe_ends_quietly(trace: Path) -> None:
+    """`| head`: the reader asked for no more; no traceback, no error line (as tshark)."""
     command = [sys.executable, "-m", "fw1394.cli.main", "dissect", str(trace), "-v"]
     with subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE) as process:
         assert process.stdout is not None and process.stderr is not None
@@ -125,10 +126,7 @@ def test_a_closed_pipe_is_one_line(trace: Path) -> None:
         process.stdout.close()  # the reader goes away, as `| head -c 10` does
         err = process.stderr.read().decode()
         status = process.wait(timeout=60)
-    assert status == 2 and "Traceback" not in err
-    assert err.splitlines() == [
-        "fw1394: error: cannot write standard output: its reader closed it (broken pipe)"
-    ]
+    assert (status, err) == (0, "")
 
 
 @pytest.fixture(scope="module")

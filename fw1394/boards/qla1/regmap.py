@@ -26,7 +26,11 @@ from fw1394.boards.qla1.regs import (
     HUB_MEMORY_QUADLETS,
     HUB_QUADLETS_WRITTEN,
     HUB_QUERY,
+    PROM_BUFFER_BASE,
     QLA1_HARDWARE_VERSION,
+    QLA_PROM_BUFFER,
+    QLA_PROM_COMMAND,
+    QLA_PROM_RESULT,
     REGISTER_INDEX_MASK,
 )
 from fw1394.boards.qla1.regs import (
@@ -126,8 +130,22 @@ BOARD = Group(
             bits=4,
         ),
         Register("FIRMWARE_VERSION", B.FIRMWARE_VERSION, "ro", None, "`firmware`", "ignored"),
-        Register("PROM_STATUS", B.PROM_STATUS, "ro", 0, "0 (idle)", "ignored"),
-        Register("PROM_RESULT", B.PROM_RESULT, "ro", 0, "0 (idle)", "ignored"),
+        Register(
+            "PROM_STATUS",
+            B.PROM_STATUS,
+            "rw",
+            0,
+            "interface status: 0 (every command done at once)",
+            "M25P16 command: instruction in 31..24, address in 23..0",
+        ),
+        Register(
+            "PROM_RESULT",
+            B.PROM_RESULT,
+            "ro",
+            0,
+            "result of the last PROM command (ID, status, quadlets read or written)",
+            "ignored",
+        ),
         Register(
             "DIGITAL_INPUT",
             B.DIGITAL_INPUT,
@@ -154,7 +172,14 @@ BOARD = Group(
             "V1 0x00000000, V2 0x80000000, V3 0x40B00000",
             "ignored (no error flags to clear)",
         ),
-        Register("DALLAS_STATUS", B.DALLAS_STATUS, "ro", 0, "0", "ignored"),
+        Register(
+            "DALLAS_STATUS",
+            B.DALLAS_STATUS,
+            "rw",
+            None,
+            "firmware ≥ 7: DS2505 status (enabled, reset answered, family 0x0B once read)",
+            "`address << 16 \\| 2` reads 256 bytes into 0x6000, `3` the next 256",
+        ),
         Register("IO_EXPANDER", B.IO_EXPANDER, "ro", 0, "0", "ignored"),
         Register(
             "GIT_DESCRIPTION",
@@ -278,6 +303,85 @@ HUB = Group(
     ),
 )
 
+PROM = Group(
+    "prom",
+    (
+        Register(
+            "PROM_PAGE_BUFFER",
+            PROM_BUFFER_BASE,
+            "rw",
+            None,
+            "the 256 bytes the last read-data command fetched",
+            "block write {page-program command, data} programs a page",
+            count=64,
+        ),
+        Register(
+            "QLA_PROM_COMMAND",
+            QLA_PROM_COMMAND,
+            "wo",
+            None,
+            "0",
+            "25AA128 command: read/write byte, read/write block, write enable, status",
+        ),
+        Register("QLA_PROM_RESULT", QLA_PROM_RESULT, "ro", 0, "last byte or status read"),
+        Register(
+            "QLA_PROM_BUFFER",
+            QLA_PROM_BUFFER,
+            "rw",
+            None,
+            "quadlets of the last block read",
+            "quadlets for the next block write",
+            count=16,
+        ),
+    ),
+)
+
+DALLAS = Group(
+    "dallas",
+    (
+        Register(
+            "DALLAS_BUFFER",
+            0x6000,
+            "ro",
+            None,
+            "firmware ≥ 7: the 256 bytes of the DS2505 the last control word fetched",
+            count=64,
+        ),
+    ),
+)
+
+ETHERNET_PHYS = Group(
+    "ethernet",
+    (
+        Register(
+            "ETH_SWITCH_DATA",
+            0x40A0,
+            "ro",
+            None,
+            "firmware ≥ 9, FPGA V3: the switch's status block, 'ESW0' first (0 before)",
+            count=32,
+        ),
+        Register(
+            "MDIO_PHY1",
+            0x41A0,
+            "rw",
+            0,
+            "`{busy 26..24 (0), last register 20..16, its data 15..0}`",
+            "clause-22 frame: start, operation (10 read, 01 write), PHY address, register, data",
+            label="MDIO (PHY1, FPGA V3)",
+        ),
+        Register(
+            "MDIO_PHY2",
+            0x42A0,
+            "rw",
+            0,
+            "as PHY1",
+            "as PHY1",
+            label="MDIO (PHY2, FPGA V3)",
+        ),
+    ),
+)
+
 CSR = Group(
     "csr",
     (
@@ -296,7 +400,7 @@ CSR = Group(
 
 REGISTER_MAP = RegisterMap(
     "qla1",
-    (BOARD, CHANNEL, HUB, CSR),
+    (BOARD, CHANNEL, HUB, PROM, DALLAS, ETHERNET_PHYS, CSR),
     decodings={FIREWIRE: FIREWIRE_DECODING, ETHERNET: ETHERNET_DECODING},
     probe="HARDWARE_VERSION",
 )

@@ -51,6 +51,8 @@ PSEUDO_HEADER = Struct(
 )
 HEADER_LENGTH = PSEUDO_HEADER.sizeof()
 FIELDS: dict[str, FlatField] = {field.name: field for field in flatten(PSEUDO_HEADER)}
+#: The one-bit and small flags, in the order of the flags word (Wireshark: ph.flags.NAME).
+FLAG_NAMES = tuple(name.removeprefix("flags.") for name in FIELDS if name.startswith("flags."))
 _PACKER = struct.Struct(struct_format(PSEUDO_HEADER))
 
 

@@ -8,15 +8,24 @@ names of fw1394's Wireshark dissector (``fw1394.tcode`` or just ``tcode``)::
     and     := not (("&&" | "and") not)*
     not     := ("!" | "not") not | "(" expr ")" | test
     test    := operand [relop operand]       (a lone field: "the field is present")
+             | field "in" "{" value ["," value | ".." value]... "}"
+             | field ("contains" | "matches") ("\"text\"" | bytes like 00:1f:a0)
     relop   := == != < <= > >=  (or eq ne lt le gt ge)
-    operand := field | integer (12, 0x1f) | value name (read_quadlet_request) | duration (100us)
+    operand := field | integer (12, 0x1f) | value name (read_quadlet_request)
+             | time: seconds as tshark writes them (0.0002), or with a unit (200us)
 
 A field may have several values in one row (a transaction's request and
 response tcodes). As in Wireshark, ``a == b`` (and ``<`` ...) holds when any
 present value of ``a`` compares true, ``a != b`` when ``a`` is present and
 none of its values equals ``b``; a comparison with an absent field is false.
 Columns hold -1 where a field is absent, so rows are evaluated with numpy,
-a whole batch at once.
+a whole batch at once; the text and byte fields (``kind``, ``data``) hold
+Python objects, None where absent.
+
+The field names are those the generated Lua dissector registers
+(``fw1394.response_time``, ``fw1394.header_crc.status``, ``fw1394.ph.flags.partial``
+...), so one filter runs in ``dissect -Y`` and in ``tshark -Y``; the short
+names and the units on times are this tool's additions.
 """
 
 from __future__ import annotations
@@ -30,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from fw1394.capture.formats import pseudo_header as ph
 from fw1394.capture.formats.record import RecordType
 from fw1394.errors import UsageError
 from fw1394.packets import AckCode, ExtendedTCode, RCode, Retry, Speed, TCode
@@ -46,7 +56,8 @@ class FieldInfo:
     name: str
     meaning: str
     enum: type[IntEnum] | None = None
-    duration: bool = False  # compared with durations (100us); values are nanoseconds
+    duration: bool = False  # compared with times (0.0001, 100us); values are nanoseconds
+    text: str | None = None  # "string" or "bytes": compared with ==, contains, matches
 
 
 _ACK_NAMES = {**{m.name: int(m) for m in AckCode}, "no_ack": 0}
@@ -64,20 +75,42 @@ FIELDS: dict[str, FieldInfo] = {
         FieldInfo("data_length", "data block length (a transaction: request and response)"),
         FieldInfo("extended_tcode", "lock operation", ExtendedTCode),
         FieldInfo("quadlet_data", "quadlet payload (a transaction: request and response)"),
+        FieldInfo("reserved", "reserved header bits"),
         FieldInfo("channel", "stream channel"),
         FieldInfo("tag", "stream tag"),
         FieldInfo("sy", "stream sy"),
         FieldInfo("ack", "ack code (a transaction: request and response acks)", AckCode),
+        FieldInfo("ack_parity", "an ack record's parity nibble"),
         FieldInfo("generation", "bus generation"),
         FieldInfo("speed", "speed code", Speed),
         FieldInfo("record_type", "trace record kind", RecordType),
         FieldInfo("sender", "physical ID of the sending node"),
         FieldInfo("frame", "frame number (a transaction: request and response frames)"),
         FieldInfo("time", "time since the first record", duration=True),
-        FieldInfo("latency", "request to response time (transactions only)", duration=True),
-        FieldInfo("attempts", "request attempts, retries included (transactions only)"),
+        FieldInfo("latency", "request to response time (on a response packet)", duration=True),
+        FieldInfo("attempts", "request attempts, retries included"),
+        FieldInfo("request_in", "frame of the request a response answers"),
+        FieldInfo("response_in", "frame of the response to a request"),
+        FieldInfo("header_crc", "header CRC quadlet"),
+        FieldInfo("header_crc.status", "header CRC: 0 bad, 1 good, 2 not computed"),
+        FieldInfo("header_crc.valid", "header CRC matches: 1, or 0"),
+        FieldInfo("data_crc", "data CRC quadlet"),
+        FieldInfo("data_crc.status", "data CRC: 0 bad, 1 good, 2 not computed"),
+        FieldInfo("data_crc.valid", "data CRC matches: 1, or 0"),
+        FieldInfo("phy.check", "PHY packet check quadlet"),
+        FieldInfo("phy.check.status", "PHY check quadlet: 0 bad, 1 good"),
+        FieldInfo("phy.check.valid", "PHY check quadlet is the complement: 1, or 0"),
+        FieldInfo("kind", "packet kind, as text (read_quadlet_request)", text="string"),
+        FieldInfo("data", "data block bytes", text="bytes"),
+        *(
+            FieldInfo(f"ph.{name}", f"pseudo-header {name}")
+            for name in ("version", "header_length", "ack", "observer", "reserved")
+        ),
+        *(FieldInfo(f"ph.flags.{name}", f"pseudo-header flag {name}") for name in ph.FLAG_NAMES),
     )
 }
+#: Wireshark's own names for what every frame has.
+FRAME_ALIASES = {"frame.number": "frame", "frame.time_relative": "time"}
 #: Other spellings, as the generated Lua dissector and the kernel name the fields.
 ALIASES = {
     "src_id": "src",
@@ -93,9 +126,12 @@ ALIASES = {
     "response_time": "latency",
 }
 #: Fields that only the transaction view has.
-TRANSACTION_ONLY = frozenset({"latency", "attempts"})
+TRANSACTION_ONLY: frozenset[str] = frozenset()
 PACKET_ONLY = frozenset({"retry", "priority", "extended_tcode", "channel", "tag", "sy"})
-PACKET_ONLY |= {"speed", "record_type", "sender"}
+PACKET_ONLY |= {"speed", "record_type", "sender", "kind", "data", "ack_parity", "reserved"}
+PACKET_ONLY |= {name for name in FIELDS if name.startswith(("ph.", "phy.")) or "crc" in name}
+#: Fields of the packet view that need every transaction of the trace paired first.
+LINK_FIELDS = frozenset({"latency", "attempts", "request_in", "response_in"})
 
 
 class FilterError(UsageError):
@@ -163,7 +199,20 @@ class Or:
     items: tuple[Node, ...]
 
 
-Node = Compare | Present | Not | And | Or
+@dataclass(frozen=True)
+class TextTest:
+    """A text or byte field against a string, bytes or a regular expression."""
+
+    op: str  # ==, !=, contains, matches
+    field: Field
+    value: str | bytes
+
+    def pattern(self) -> re.Pattern[str]:
+        assert isinstance(self.value, str)
+        return re.compile(self.value)
+
+
+Node = Compare | Present | Not | And | Or | TextTest
 RELOPS: dict[str, Callable[[Any, Any], Any]] = {
     "==": operator.eq,
     "!=": operator.ne,
@@ -177,8 +226,18 @@ _WORD_OPS = {"eq": "==", "ne": "!=", "lt": "<", "le": "<=", "gt": ">", "ge": ">=
 _MIRROR = {"==": "==", "!=": "!=", "<": ">", "<=": ">=", ">": "<", ">=": "<="}
 
 
+def _quoted(value: str | bytes) -> str:
+    if isinstance(value, bytes):
+        return (
+            ":".join(f"{byte:02x}" for byte in value) if len(value) > 1 else f'"\\x{value.hex()}"'
+        )
+    return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
 def to_text(node: Node) -> str:
     """Filter text that parses back to ``node``."""
+    if isinstance(node, TextTest):
+        return f"{node.field.text()} {node.op} {_quoted(node.value)}"
     if isinstance(node, Compare):
         return f"{node.left.text()} {node.op} {node.right.text()}"
     if isinstance(node, Present):
@@ -197,7 +256,7 @@ def _wrapped(node: Node) -> str:
 def fields_of(node: Node) -> set[str]:
     if isinstance(node, Compare):
         return {o.name for o in (node.left, node.right) if isinstance(o, Field)}
-    if isinstance(node, Present):
+    if isinstance(node, Present | TextTest):
         return {node.field.name}
     if isinstance(node, Not):
         return fields_of(node.item)
@@ -207,8 +266,10 @@ def fields_of(node: Node) -> set[str]:
 # -- parsing -------------------------------------------------------------------------------------
 _TOKEN = re.compile(
     r"""\s*(?:
-        (?P<number>(?:0[xX][0-9a-fA-F_]+|\d[\d_]*(?:\.\d+)?)(?:[a-zA-Z]+)?)
-      | (?P<op>==|!=|<=|>=|&&|\|\||[<>!()])
+        (?P<bytes>[0-9a-fA-F]{2}(?:[:.-][0-9a-fA-F]{2})+(?![0-9a-zA-Z_]))
+      | (?P<number>(?:0[xX][0-9a-fA-F_]+|\d[\d_]*(?:\.\d+)?|\.\d+)(?:[a-zA-Z]+)?)
+      | (?P<string>"(?:[^"\\]|\\.)*")
+      | (?P<op>==|!=|<=|>=|&&|\|\||\.\.|[<>!(){},])
       | (?P<word>[A-Za-z_][A-Za-z0-9_.]*)
     )""",
     re.VERBOSE,
@@ -239,6 +300,8 @@ def _tokens(text: str) -> list[_Token]:
             kind, value = "op", _WORD_OPS[value]
         elif kind == "word" and value in ("and", "or", "not"):
             kind, value = "op", {"and": "&&", "or": "||", "not": "!"}[value]
+        elif kind == "word" and value in ("in", "contains", "matches"):
+            kind = "op"
         tokens.append(_Token(kind, value, start))
         at = match.end()
     tokens.append(_Token("end", "", len(text)))
@@ -247,6 +310,8 @@ def _tokens(text: str) -> list[_Token]:
 
 def field_name(word: str) -> str | None:
     """The canonical name of field ``word`` (``fw1394.tcode``, ``tcode``, ``src_id``...)."""
+    if word in FRAME_ALIASES:
+        return FRAME_ALIASES[word]
     short = word[len(PREFIX) :] if word.startswith(PREFIX) else word
     short = ALIASES.get(short, short)
     return short if short in FIELDS else None
@@ -309,6 +374,23 @@ class _Parser:
         left_token = self.peek()
         left = self.operand()
         token = self.peek()
+        if token.kind == "op" and token.text in ("in", "contains", "matches"):
+            if not isinstance(left, Field):
+                raise self.error(f"{token.text} needs a field on its left", left_token)
+            if token.text != "in" and FIELDS[left.name].text is None:
+                raise self.error(
+                    f"{token.text} works on text and byte fields (kind, data), not {left.name}"
+                )
+            self.take()
+            if token.text == "in":
+                return self.members(left)
+            return self.text_test(token.text, left)
+        if isinstance(left, Field) and FIELDS[left.name].text is not None:
+            if token.kind == "op" and token.text in ("==", "!="):
+                self.take()
+                return self.text_test(token.text, left)
+            if token.kind == "op" and token.text in RELOPS:
+                raise self.error(f"{left.name} is text: compare it with ==, contains or matches")
         if token.kind == "op" and token.text in RELOPS:
             self.take()
             right_token = self.peek()
@@ -319,6 +401,59 @@ class _Parser:
         if left_token.kind == "word":
             raise self.error(_unknown_field(), left_token)
         raise self.error("a value on its own is not a test; compare it with a field", left_token)
+
+    def members(self, field: Field) -> Node:
+        """``field in {a, b, c..d}``: any of the values, or within a range."""
+        if self.peek().text != "{":
+            raise self.error("expected { after in")
+        self.take()
+        items: list[Node] = []
+        if self.peek().text == "}":
+            raise self.error("an empty set matches nothing; name at least one value")
+        while self.peek().text != "}":
+            if self.peek().kind == "end":
+                raise self.error("missing }")
+            low = _resolve(self.value_token(), field, self)
+            if self.peek().text == "..":
+                self.take()
+                high = _resolve(self.value_token(), field, self)
+                items.append(And((Compare(">=", field, low), Compare("<=", field, high))))
+            else:
+                items.append(Compare("==", field, low))
+            if self.peek().text == ",":
+                self.take()
+        self.take()
+        return items[0] if len(items) == 1 else Or(tuple(items))
+
+    def value_token(self) -> _Token:
+        token = self.take()
+        if token.kind in ("number", "word"):
+            return token
+        self.at -= 1
+        raise self.error("expected a value")
+
+    def text_test(self, op: str, field: Field) -> TextTest:
+        token = self.take()
+        info = FIELDS[field.name]
+        if info.text is None:
+            self.at -= 1
+            raise self.error(f"{op} works on text and byte fields (kind, data), not {field.name}")
+        value: str | bytes
+        if token.kind == "string":
+            text = _unquote(token.text)
+            value = text.encode("latin-1") if info.text == "bytes" and op != "matches" else text
+        elif token.kind == "bytes" and info.text == "bytes" and op != "matches":
+            value = bytes.fromhex(re.sub(r"[:.-]", "", token.text))
+        else:
+            self.at -= 1
+            raise self.error('expected "text" (or bytes such as 00:1f for data)')
+        if op == "matches":
+            try:
+                re.compile(str(value))
+            except re.error as error:
+                self.at -= 1
+                raise self.error(f"not a regular expression ({error})") from None
+        return TextTest(op, field, value)
 
     def operand(self) -> Field | _Pending:
         token = self.take()
@@ -371,6 +506,16 @@ def _compare(
     return Compare(op, left, _resolve(right.token, left, parser))
 
 
+def _unquote(text: str) -> str:
+    """A filter string's value: backslash escapes as in Wireshark (\\", \\\\, \\xNN)."""
+    body = text[1:-1]
+    return re.sub(
+        r"\\(x[0-9a-fA-F]{2}|.)",
+        lambda m: chr(int(m.group(1)[1:], 16)) if len(m.group(1)) == 3 else m.group(1),
+        body,
+    )
+
+
 def _value_names(name: str) -> dict[str, int]:
     enum = FIELDS[name].enum
     if enum is None:
@@ -385,7 +530,7 @@ def _unknown_field() -> str:
     return f"unknown field (known: {', '.join(FIELDS)})"
 
 
-_DURATION = re.compile(r"(\d+(?:\.\d+)?)([a-zA-Z]+)")
+_DURATION = re.compile(r"(\d*\.?\d+)([a-zA-Z]+)")
 
 
 def _resolve(token: _Token, field: Field, parser: _Parser) -> Literal:
@@ -400,11 +545,16 @@ def _resolve(token: _Token, field: Field, parser: _Parser) -> Literal:
             raise parser.error(f"not a {field.name} name (known: {known})", token)
         return Literal(names[text], text)
     if info.duration:
-        match = _DURATION.fullmatch(text.replace("_", ""))
-        if match is None or match.group(2) not in UNITS:
-            raise parser.error(f"{field.name} needs a time with a unit (ns, us, ms, s)", token)
-        nanoseconds = round(float(match.group(1)) * UNITS[match.group(2)])
-        return Literal(nanoseconds, text)
+        plain = text.replace("_", "")
+        match = _DURATION.fullmatch(plain)
+        if match is not None and match.group(2) in UNITS:
+            return Literal(round(float(match.group(1)) * UNITS[match.group(2)]), text)
+        try:
+            return Literal(round(float(plain) * UNITS["s"]), text)  # seconds, as tshark
+        except ValueError:
+            raise parser.error(
+                f"{field.name} needs a time: seconds (0.0002) or with a unit (200us)", token
+            ) from None
     try:
         return Literal(int(text.replace("_", ""), 0), text)
     except ValueError:
@@ -433,7 +583,12 @@ Columns = Mapping[str, tuple[np.ndarray, ...]]
 
 def evaluate(node: Node, columns: Columns, rows: int) -> np.ndarray:
     """Which of ``rows`` rows pass, as a boolean array."""
+    if isinstance(node, TextTest):
+        test = _text_predicate(node)
+        return np.fromiter((test(v) for v in columns[node.field.name][0]), bool, rows)
     if isinstance(node, Present):
+        if FIELDS[node.field.name].text is not None:
+            return np.fromiter((v is not None for v in columns[node.field.name][0]), bool, rows)
         return _any_present(columns[node.field.name], rows)
     if isinstance(node, Compare):
         return _compare_columns(node, columns, rows)
@@ -446,6 +601,26 @@ def evaluate(node: Node, columns: Columns, rows: int) -> np.ndarray:
         else:
             result |= evaluate(item, columns, rows)
     return result
+
+
+def _text_predicate(node: TextTest) -> Callable[[Any], bool]:
+    """Whether one row's value (None: absent) passes ``node``."""
+    value = node.value
+    if node.op == "matches":
+        pattern = node.pattern()
+
+        def search(v: Any) -> bool:
+            if v is None:
+                return False
+            text = v.decode("latin-1") if isinstance(v, bytes) else v
+            return pattern.search(text) is not None
+
+        return search
+    if node.op == "contains":
+        return lambda v: v is not None and value in v
+    if node.op == "==":
+        return lambda v: v is not None and v == value
+    return lambda v: v is not None and v != value
 
 
 def _any_present(values: tuple[np.ndarray, ...], rows: int) -> np.ndarray:
@@ -481,9 +656,13 @@ def _compare_columns(node: Compare, columns: Columns, rows: int) -> np.ndarray:
     return result
 
 
-def evaluate_row(node: Node, values: Mapping[str, tuple[int, ...]]) -> bool:
+def evaluate_row(node: Node, values: Mapping[str, tuple[Any, ...]]) -> bool:
     """The same filter on one row, in plain Python: the reference for :func:`evaluate`."""
+    if isinstance(node, TextTest):
+        return _text_predicate(node)(values[node.field.name][0])
     if isinstance(node, Present):
+        if FIELDS[node.field.name].text is not None:
+            return values[node.field.name][0] is not None
         return any(v >= 0 for v in values[node.field.name])
     if isinstance(node, Not):
         return not evaluate_row(node.item, values)
@@ -513,6 +692,10 @@ class DisplayFilter:
 
     def __call__(self, columns: Columns, rows: int) -> np.ndarray:
         return evaluate(self.tree, columns, rows)
+
+    @property
+    def fields(self) -> set[str]:
+        return fields_of(self.tree)
 
 
 def help_lines() -> list[str]:

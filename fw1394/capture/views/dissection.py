@@ -16,7 +16,7 @@ from collections import deque
 from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
-from typing import TextIO
+from typing import Any, TextIO
 
 import numpy as np
 
@@ -28,7 +28,7 @@ from fw1394.capture.analysis.transactions import Pairer, Transactions
 from fw1394.capture.formats import sources
 from fw1394.capture.formats.batch import Batch
 from fw1394.capture.formats.record import RecordType
-from fw1394.capture.views.filter_columns import packet_columns, transaction_columns
+from fw1394.capture.views.filter_columns import Links, packet_columns, transaction_columns
 from fw1394.capture.views.packet_view import PACKET_CSV, PacketFormatter
 from fw1394.capture.views.time_format import TimeColumn, previous_times, splice
 from fw1394.capture.views.transaction_view import TRANSACTION_CSV, TransactionFormatter
@@ -57,6 +57,15 @@ class Options:
     #: Read only this many records (as ``tshark -r -c``), whatever the view.
     count: int | None = None
     time_format: str = "r"
+    #: The whole trace's pairing, for packet filters on request_in, latency ... (see pair_links)
+    links: Links | None = None
+    #: ``output == "fields"`` (tshark -T fields): these Wireshark field names, joined by this.
+    fields: tuple[str, ...] = ()
+    separator: str = "\t"
+    hex_dump: bool = False  # -x: each packet's bytes after its line
+    flush_each: bool = False  # -l: flush after every packet
+    #: -w: the packets shown go to this trace writer instead of being printed.
+    writer: Any = None
 
 
 @dataclass
@@ -119,6 +128,21 @@ def decoded_batches(
             reader.join()
 
 
+def pair_links(jobs: Iterator[sources.Job], verify_crc: bool | None, workers: int) -> Links:
+    """A first pass over a trace that pairs every transaction, so that a packet
+    filter knows a request's response frame before it reaches it (tshark's
+    two passes do the same)."""
+    pairer = Pairer()
+    ended: list[Transactions] = []
+    last_frame = 0
+    for batch, decoded in decoded_batches(jobs, verify_crc, workers):
+        if len(batch):
+            last_frame = max(last_frame, int(batch.frame.max()))
+        ended.extend(pairer.feed(batch, decoded))
+    ended.extend(pairer.finish())
+    return Links.of(ended, last_frame)
+
+
 class Dissection:
     """One run of the pipeline over one input."""
 
@@ -133,6 +157,7 @@ class Dissection:
         self._generation: int | None = None
         self.time_column = TimeColumn(options.time_format)
         self._last_ts: int | None = None  # the last record of the previous batch
+        self._ack_owed = False  # -w: the last packet saved waits for its ack record
         view = options.view
         self.pairs = view in ("transactions", "stats", "rom") or options.want_plots
         if self._csv is not None and view == "packets":
@@ -219,7 +244,7 @@ class Dissection:
                 | np.isin(batch.sender, ids)
             )
         if o.display_filter is not None and o.view == "packets" and keep.any():
-            columns = packet_columns(batch, decoded, self.origin_ns or 0)
+            columns = packet_columns(batch, decoded, self.origin_ns or 0, o.links)
             keep &= o.display_filter(columns, len(batch))
         return keep
 
@@ -250,10 +275,19 @@ class Dissection:
         return keep
 
     def _packets(self, batch: Batch, decoded: Decoded, keep: np.ndarray) -> None:
+        if self.options.writer is not None:
+            self._save(batch, keep)
+            return
+        if self.options.output == "fields":
+            self._fields(batch, decoded, keep)
+            return
         formatter = PacketFormatter(batch, decoded, self.origin_ns or 0)
-        write, output = self.out.write, self.options.output
+        write: Callable[[str], object] = self.out.write
+        output = self.options.output
         rows = np.flatnonzero(keep)
         self.outcome.shown += len(rows)
+        if self.options.hex_dump or self.options.flush_each:
+            write = self._decorated(batch, write)
         retimed = output == "text" and self.options.time_format != "r"
         if retimed:
             previous = previous_times(batch.ts_ns, self._last_ts)
@@ -278,6 +312,61 @@ class Dissection:
                 write(formatter.line(row) + "\n")
                 if self.options.verbose:
                     write("\n".join(formatter.details(row)) + "\n")
+
+    def _decorated(self, batch: Batch, write: Callable[[str], object]) -> Callable[[str], None]:
+        """``write`` with -x (a frame's bytes after its line: the pseudo-header and the
+        packet, as tshark shows a frame of this link type) and -l (flush each line).
+
+        Every row's output ends in one call per packet line; the dump follows the
+        line of the frame that it starts with."""
+        from fw1394.capture.formats.trace_writer import record_bytes
+
+        frames = {int(f): r for r, f in enumerate(batch.frame.tolist())}
+        options, out = self.options, self.out
+
+        def decorated(text: str) -> None:
+            write(text)
+            if options.hex_dump:
+                head = text.split(None, 1)
+                row = frames.get(int(head[0])) if head and head[0].isdigit() else None
+                if row is not None:
+                    write(hex_dump(record_bytes(batch.record(row))) + "\n")
+            if options.flush_each:
+                out.flush()
+
+        return decorated
+
+    def _fields(self, batch: Batch, decoded: Decoded, keep: np.ndarray) -> None:
+        """tshark -T fields: the named fields of each packet shown, absent ones empty."""
+        from fw1394.capture.views.display_filter import field_name
+
+        columns = packet_columns(batch, decoded, self.origin_ns or 0, self.options.links)
+        names = [field_name(name) or name for name in self.options.fields]
+        values = [columns[name] for name in names]
+        rows = np.flatnonzero(keep)
+        self.outcome.shown += len(rows)
+        separator = self.options.separator
+        for row in rows.tolist():
+            cells = [
+                field_text(name, column, row) for name, column in zip(names, values, strict=True)
+            ]
+            self.out.write(separator.join(cells) + "\n")
+            if self.options.flush_each:
+                self.out.flush()
+
+    def _save(self, batch: Batch, keep: np.ndarray) -> None:
+        """-w: write the packets that passed, each with the ack record right after it."""
+        from fw1394.capture.formats.trace_writer import write_record
+
+        is_ack = batch.record_type == RecordType.ack
+        after = np.zeros(len(batch), bool)
+        after[1:] = keep[:-1] & ~is_ack[:-1] & is_ack[1:]
+        if len(batch) and self._ack_owed and is_ack[0]:
+            after[0] = True
+        self._ack_owed = bool(len(batch)) and bool(keep[-1]) and not bool(is_ack[-1])
+        self.outcome.shown += int(np.count_nonzero(keep))
+        for row in np.flatnonzero(keep | after).tolist():
+            write_record(self.options.writer, batch.record(row))
 
     def _transactions(self, ended: list[Transactions], batch: Batch | None) -> None:
         """Account for, and in the transaction view print, what ended in one batch."""
@@ -371,6 +460,45 @@ class Dissection:
                     self.out.write("".join(f"  {line}\n" for line in report_lines(rom)))
             if not self.outcome.roms.roms and output == "text":
                 self.out.write("no configuration ROM reads in this trace\n")
+
+
+#: Fields tshark -T fields prints in hex (base.HEX in the Lua dissector).
+HEX_FIELDS = frozenset(
+    {"src", "dst", "offset", "quadlet_data", "header_crc", "data_crc", "phy.check", "ack_parity"}
+)
+
+
+def field_text(name: str, column: tuple[Any, ...], row: int) -> str:
+    """One -T fields cell: empty where absent; several values comma-separated."""
+    cells = []
+    for values in column:
+        value = values[row]
+        if value is None or (not isinstance(value, str | bytes) and value < 0):
+            continue
+        if isinstance(value, bytes):
+            cells.append(value.hex())
+        elif isinstance(value, str):
+            cells.append(value)
+        elif name in ("time", "latency"):
+            cells.append(f"{int(value) / 1e9:.9f}")
+        elif name in HEX_FIELDS:
+            cells.append(
+                f"0x{int(value):0{12 if name == 'offset' else 4 if name in ('src', 'dst') else 8}x}"
+            )
+        else:
+            cells.append(str(int(value)))
+    return ",".join(cells)
+
+
+def hex_dump(data: bytes) -> str:
+    """tshark -x: offset, 16 bytes in hex, and their printable characters."""
+    lines = []
+    for at in range(0, len(data), 16):
+        chunk = data[at : at + 16]
+        octets = " ".join(f"{b:02x}" for b in chunk)
+        text = "".join(chr(b) if 32 <= b < 127 else "." for b in chunk)
+        lines.append(f"{at:04x}  {octets:<47}   {text}")
+    return "\n".join(lines) + "\n"
 
 
 def stats_lines(report: dict[str, object]) -> list[str]:

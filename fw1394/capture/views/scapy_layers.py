@@ -25,6 +25,7 @@ from scapy.fields import BitField, StrLenField, XBitField
 from scapy.layers.inet import UDP
 from scapy.packet import Packet, Raw, bind_layers
 
+from fw1394 import crc
 from fw1394.capture.formats import pseudo_header
 from fw1394.capture.formats.eth1394_udp import classify
 from fw1394.capture.formats.record import RecordType
@@ -61,11 +62,19 @@ def _merged(bitfields: Iterable[LayoutBit]) -> list[tuple[str, int]]:
     return merged
 
 
-def _bit_fields(items: Iterable[tuple[str, int]]) -> list[Any]:
+#: Fields left None are worked out in post_build, as scapy does for lengths and
+#: checksums: the CRCs, and a block's data_length from its data.
+_COMPUTED = {"header_crc", "data_crc", "data_length"}
+
+
+def _bit_fields(
+    items: Iterable[tuple[str, int]], defaults: dict[str, int] | None = None
+) -> list[Any]:
     fields: list[Any] = []
     for name, width in items:
         kind = XBitField if name in _HEX or name.endswith("_crc") else BitField
-        fields.append(kind(name, 0, width))
+        default = (defaults or {}).get(name, 0)
+        fields.append(kind(name, default, width))
     return fields
 
 
@@ -84,8 +93,39 @@ class FW1394(Packet):
     @classmethod
     def dispatch_hook(cls, _pkt: bytes | None = None, *args: Any, **kargs: Any) -> type[Packet]:
         if cls is FW1394 and _pkt and len(_pkt) >= TCODE.end:
-            return ASYNC_WITH_CRC.get(TCODE.of_bytes(_pkt), Raw)
+            found = ASYNC_WITH_CRC.get(TCODE.of_bytes(_pkt))
+            # A header cut short is bytes, not a packet (scapy's rule for a short layer).
+            if found is None or len(_pkt) < found.header_bytes:
+                return Raw
+            return found
         return cls
+
+    header_bytes: ClassVar[int] = 0
+    header_quadlets: ClassVar[int] = 0
+    data_length_at: ClassVar[int] = 0  # byte offset of the 16-bit data_length
+
+    def post_build(self, packet: bytes, payload: bytes) -> bytes:
+        """Fill in what was left None: data_length from the data, then the CRCs."""
+        built = bytearray(packet)
+        fields = {f.name for f in self.fields_desc}
+        count = 4 * self.header_quadlets
+        at = self.data_length_at
+        if "data_length" in fields and self.data_length is None and "data" in fields:
+            built[at : at + 2] = len(self.data or b"").to_bytes(2, "big")
+        if "data" in fields:
+            # Pad the data block to a quadlet boundary with zeros, as it travels.
+            length = int.from_bytes(built[at : at + 2], "big")
+            start = count + 4 * self.with_crc
+            block = bytes(built[start : start + length])
+            padding = bytes(-length % 4) if not self.padding else b""
+            tail = built[start + length :]
+            built = built[: start + length] + padding + tail
+            if self.with_crc and self.data_crc is None:
+                end = start + length + len(padding) + len(self.padding or b"")
+                built[end : end + 4] = crc.data_crc(block).to_bytes(4, "big")
+        if self.with_crc and "header_crc" in fields and self.header_crc is None:
+            built[count : count + 4] = crc.header_crc(bytes(built[:count])).to_bytes(4, "big")
+        return bytes(built) + payload
 
 
 def _data_length(packet: Packet) -> int:
@@ -95,20 +135,36 @@ def _data_length(packet: Packet) -> int:
 def _async_class(tcode: int, with_crc: bool) -> type[FW1394]:
     layout = LAYOUTS[tcode]  # type: ignore[index]
     header = layout.sealed_header if with_crc else layout.header
-    fields = _bit_fields(_merged(header.bitfields))
+    # Each kind's own tcode is its default (as scapy's TCP has its proto); CRCs and
+    # a block's length are computed at build time unless given.
+    defaults: dict[str, Any] = {"tcode": tcode, "header_crc": None, "data_length": None}
+    merged = _merged(header.bitfields)
+    fields = _bit_fields(merged, defaults)
+    bits = [width for _, width in merged]
+    names = [name for name, _ in merged]
+    length_at = sum(bits[: names.index("data_length")]) // 8 if "data_length" in names else 0
     if layout.has_data:
         fields.append(StrLenField("data", b"", length_from=_data_length))
         fields.append(StrLenField("padding", b"", length_from=lambda p: -_data_length(p) % 4))
         if with_crc:
-            fields.append(XBitField("data_crc", 0, 32))
+            fields.append(XBitField("data_crc", None, 32))
     words = "".join(part.capitalize() for part in layout.name.split("_"))
     name = f"FW1394{words}" + ("" if with_crc else "NoCRC")
-    namespace = {"name": f"IEEE 1394 {layout.name}", "fields_desc": fields, "with_crc": with_crc}
+    namespace = {
+        "name": f"IEEE 1394 {layout.name}",
+        "fields_desc": fields,
+        "with_crc": with_crc,
+        "header_quadlets": layout.header.count,
+        "header_bytes": 4 * header.count,
+        "data_length_at": length_at,
+    }
     return type(name, (FW1394,), namespace)
 
 
 ASYNC_WITH_CRC = {int(t): _async_class(int(t), True) for t in LAYOUTS}
 ASYNC_WITHOUT_CRC = {int(t): _async_class(int(t), False) for t in LAYOUTS}
+#: Every kind by its class name (FW1394ReadQuadletRequest ...), importable from here.
+globals().update({layer.__name__: layer for layer in ASYNC_WITH_CRC.values()})
 
 
 class FW1394Phy(Packet):
@@ -261,6 +317,17 @@ def sr1(
     return Answer(ack, FW1394(reply.data) if reply.data else None)
 
 
+def sr(
+    packets: Iterable[Packet | bytes],
+    *,
+    bus: str = DEFAULT_BUS,
+    wait: float = 0.5,
+    root: Path | None = None,
+) -> list[tuple[Packet | bytes, Answer]]:
+    """Each packet with what came back, as scapy's ``sr`` pairs them: one :func:`sr1` each."""
+    return [(packet, sr1(packet, bus=bus, wait=wait, root=root)) for packet in packets]
+
+
 conf.l2types.register(pseudo_header.LINKTYPE_FW1394, FW1394Capture)
 bind_layers(UDP, Eth1394, dport=UDP_PORT)
 bind_layers(UDP, Eth1394, sport=UDP_PORT)
@@ -277,5 +344,6 @@ __all__ = [
     "FW1394Ack",
     "FW1394Capture",
     "FW1394Phy",
+    "sr",
     "sr1",
 ]
