@@ -5,7 +5,7 @@ case, a read-back after every write, a register sweep every 64 cases) and no
 shrinking; the rate counts cases only, not start-up. Baselines measured in the
 same run: the case generator alone, and one bare responder answering the same
 cases (the least a fuzzer with a reference model must spend is two of those).
-Targets: >= 5,000 cases/s in-process, >= 1,500 cases/s over UDP, >= 50 cases/s
+Targets: >= 5,000 cases/s in-process, >= 1,500 cases/s over UDP, >= 100 cases/s
 for the thesis link RTL in Icarus Verilog (``rtl:thesis``; skipped without
 iverilog and cocotb), run interleaved with ``inproc:snake2010`` on the same
 seeds as its baseline.
@@ -13,6 +13,7 @@ seeds as its baseline.
     python bench/fuzz.py [--cases 20000] [--remote-cases 5000] [--rtl-cases 1000]
     python bench/fuzz.py --jobs-only [--jobs-cases 200000] [--jobs-rounds 5]
     python bench/fuzz.py --rtl-only [--rtl-cases 1000]
+    python bench/fuzz.py --cluster-only [--rtl-cases 1000]
 
 ``--jobs 2`` against one job: the same in-process campaign (the same total
 cases, seeds derived from one) timed from start to merged report, process
@@ -31,6 +32,7 @@ import time
 from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import AbstractContextManager, contextmanager
+from typing import Any
 
 from fw1394.engine import Responder
 from fw1394.fuzz.campaign import run
@@ -45,7 +47,9 @@ NODE = 0xFFC0
 IN_PROCESS_TARGET = 5_000
 UDP_TARGET = 1_500
 JOBS_TARGET = 1.7
-RTL_TARGET = 50
+RTL_TARGET = 100
+#: Two Dask workers against one, rtl:thesis (the cluster's speed-up).
+CLUSTER_TARGET = 1.6
 KINDS = ("memory", "qla1", "snake2010")
 
 
@@ -114,7 +118,13 @@ def main() -> None:
     parser.add_argument("--jobs-only", action="store_true", help="only --jobs 2 against 1")
     parser.add_argument("--rtl-cases", type=int, default=1_000, help="cases per RTL run (0: skip)")
     parser.add_argument("--rtl-only", action="store_true", help="only the RTL target")
+    parser.add_argument(
+        "--cluster-only", action="store_true", help="only rtl:thesis on 2 Dask workers against 1"
+    )
     args = parser.parse_args()
+    if args.cluster_only:
+        cluster_speedup(args.rtl_cases)
+        return
     if args.jobs_only:
         jobs_speedup(args.jobs_cases, args.jobs_rounds)
         return
@@ -219,6 +229,35 @@ def rtl_rates(cases: int) -> None:
         f"inproc:snake2010 {baseline:,.0f}/s, ratio {baseline / rate:,.0f}x"
     )
     print(f"RTL:        median of 3 {rate:,.0f} cases/s ({verdict(rate, RTL_TARGET)})")
+
+
+def cluster_speedup(cases: int) -> None:
+    """rtl:thesis on a 2-worker Dask LocalCluster against one worker, interleaved rounds,
+    timed from submission to merged report (cluster start-up excluded)."""
+    from distributed import LocalCluster
+
+    from fw1394.fuzz import cluster, workers
+    from fw1394.fuzz.settings import Settings
+
+    one, two = [], []
+    start_cluster: Any = LocalCluster  # (distributed ships no type hints)
+    with start_cluster(
+        n_workers=2, threads_per_worker=1, host="127.0.0.1", dashboard_address=None
+    ) as local:
+        for seed in range(3):
+            settings = Settings("rtl:thesis", seed=seed, max_cases=cases, shrink_budget=0)
+            start = time.perf_counter()
+            workers.run(settings, 1)
+            one.append(cases / (time.perf_counter() - start))
+            start = time.perf_counter()
+            cluster.run(settings, local.scheduler_address)
+            two.append(cases / (time.perf_counter() - start))
+    alone, spread = sorted(one)[1], sorted(two)[1]
+    print(
+        f"rtl:thesis, {cases} cases a round: 1 worker {alone:.1f} cases/s, 2 Dask workers "
+        f"{spread:.1f} cases/s: {spread / alone:.2f}x (target >= {CLUSTER_TARGET}); "
+        f"load average {os.getloadavg()[0]:.1f}"
+    )
 
 
 def verdict(rate: float, target: int) -> str:

@@ -20,7 +20,11 @@ from fw1394 import errors
 from fw1394.cli import main as cli_main
 from fw1394.engine import FailureReason, TransactionFailed
 from fw1394.packets import AckCode, RCode, decode
-from fw1394.transport.bus_host import TransactionError, TransactionTimeout
+from fw1394.transport.bus_host import (
+    StaleGenerationError,
+    TransactionError,
+    TransactionTimeout,
+)
 
 
 def _library_exception_classes() -> list[type[BaseException]]:
@@ -81,6 +85,15 @@ def test_a_failed_transaction_carries_its_ack_and_rcode(
     assert (error.ack, error.rcode) == (ack, rcode)
     assert isinstance(error, fw1394.Timeout) is timeout
     assert isinstance(error, TransactionTimeout) is timeout
+
+
+def test_a_subclass_keeps_its_own_constructor() -> None:
+    # The base picks TransactionTimeout from the failure; a subclass built from
+    # other arguments must still construct (a stale generation is not a timeout).
+    stale = StaleGenerationError(3, 4)
+    assert (stale.addressed, stale.current, stale.ack, stale.rcode) == (3, 4, None, None)
+    assert isinstance(stale, fw1394.TransactionError)
+    assert not isinstance(stale, fw1394.Timeout)
 
 
 def test_a_packet_error_names_its_field_or_only_the_problem() -> None:

@@ -156,6 +156,13 @@ def add_run_options(run: argparse.ArgumentParser) -> None:
     rtl.add_argument(
         "--sclk-mhz", type=float, default=49.152, metavar="MHZ", help="SCLK of the design"
     )
+    transport.add_argument(
+        "--cluster",
+        default=None,
+        metavar="ADDRESS",
+        help="run the campaign on the Dask distributed scheduler at ADDRESS "
+        "(tcp://HOST:8786): one share of the seeds per worker, findings merged",
+    )
     out = run.add_argument_group("inputs and findings")
     out.add_argument("--corpus", action="append", default=[], metavar="FILE", help="seeds")
     out.add_argument("--findings", default="fuzz-findings", metavar="DIR", help="reproducers")
@@ -234,11 +241,19 @@ def run_campaign(args: argparse.Namespace) -> int:
         report = _guarded(lambda: hypo.run(settings))
     else:
         show = sys.stderr.isatty() if args.progress is None else args.progress
-        show = show and args.jobs == 1
+        show = show and args.jobs == 1 and args.cluster is None
         progress = Progress(settings.max_cases, settings.duration) if show else None
-        report = _guarded(
-            lambda: workers.run(settings, args.jobs, restart=args.restart, progress=progress)
-        )
+        if args.cluster is not None:
+            if args.restart is not None:
+                raise CliError("--cluster runs without --restart")
+            from fw1394.fuzz import cluster
+
+            jobs = args.jobs if args.jobs > 1 else None
+            report = _guarded(lambda: cluster.run(settings, args.cluster, jobs=jobs))
+        else:
+            report = _guarded(
+                lambda: workers.run(settings, args.jobs, restart=args.restart, progress=progress)
+            )
     try:
         findings.save(directory, findings.merged(earlier, report.findings))
         (directory / "report.json").write_text(json.dumps(report.to_json(), indent=2) + "\n")

@@ -16,6 +16,7 @@ from collections.abc import Callable
 from dataclasses import replace
 
 from fw1394.fuzz import corpus
+from fw1394.fuzz.coverage import bin_name, length_class
 from fw1394.fuzz.findings import Finding
 from fw1394.fuzz.generate import Generator
 from fw1394.fuzz.judge import Violation
@@ -133,6 +134,8 @@ def _loop(
     generator = Generator(target.node_id, trial.model, random.Random(settings.seed), seeds)
     found: dict[tuple[str, str], Finding] = {}
     kinds, labels, addressing = report.kinds, report.labels, report.addressing
+    speed_of = getattr(target, "speed_name_of", None)
+    report.speeds = _campaign_speeds(settings) if speed_of is not None else ("-",)
     limit = settings.max_cases
     start = time.monotonic()
     deadline = start + settings.duration if settings.duration else None
@@ -151,9 +154,15 @@ def _loop(
             cases += 1
             violations = trial.case(raw, label)
             packet = trial.last_wire.packet
-            kinds[packet.kind if packet is not None else "undecodable"] += 1
+            kind = packet.kind if packet is not None else "undecodable"
+            kinds[kind] += 1
             labels[label] += 1
-            addressing[_addressed(packet, target.node_id)] += 1
+            address = _addressed(packet, target.node_id)
+            addressing[address] += 1
+            speed = speed_of(raw) if speed_of is not None else "-"
+            report.bins[
+                bin_name(kind, trial.last_outcome, speed, length_class(packet), address)
+            ] += 1
             new: list[tuple[str, str]] = []
             if violations:
                 new = _record(violations, trial, settings, found, report, cases)
@@ -272,6 +281,10 @@ def described(finding: Finding, settings: Settings, target: Target) -> Finding:
         if (violation.oracle, violation.signature) == finding.key:
             return replace(finding, expected=violation.expected, observed=violation.observed)
     return finding
+
+
+def _campaign_speeds(settings: Settings) -> tuple[str, ...]:
+    return ("S100", "S200", "S400") if settings.speed == "mixed" else (settings.speed,)
 
 
 def _addressed(packet: AsyncPacket | None, node_id: int) -> str:

@@ -6,6 +6,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any
 
+from fw1394.fuzz.coverage import never_hit, space
 from fw1394.fuzz.findings import Finding
 from fw1394.fuzz.judge import ORACLES
 from fw1394.fuzz.settings import Settings
@@ -30,6 +31,10 @@ class Report:
     #: Checks made and violations seen (duplicates included), per oracle.
     checks: Counter[str] = field(default_factory=Counter)
     violations: Counter[str] = field(default_factory=Counter)
+    #: Functional coverage: cases per bin (kind/outcome/speed/length/address,
+    #: :mod:`fw1394.fuzz.coverage`), and the speeds the bins span.
+    bins: Counter[str] = field(default_factory=Counter)
+    speeds: tuple[str, ...] = ("-",)
     #: Anything the user should know about the run (no model, restarts, ...).
     notes: list[str] = field(default_factory=list)
 
@@ -62,6 +67,8 @@ class Report:
                 "oracles": {
                     o: {"checks": self.checks[o], "violations": self.violations[o]} for o in ORACLES
                 },
+                "bins": dict(sorted(self.bins.items())),
+                "never_hit": never_hit(self.bins, self.speeds),
             },
             "notes": self.notes,
         }
@@ -90,6 +97,14 @@ class Report:
             ("addressed", self.addressing),
         ):
             out.append(f"  {title:<11} " + ", ".join(f"{k} {v}" for k, v in counter.most_common()))
+        missed = never_hit(self.bins, self.speeds)
+        worth = len(space(self.speeds))
+        out.append(
+            f"  bins        {worth - len(missed)} of {worth} hit (kind x outcome x speed x "
+            f"length x address); never hit: "
+            + (", ".join(missed[:6]) or "none")
+            + (f" and {len(missed) - 6} more (--json lists them)" if len(missed) > 6 else "")
+        )
         out.extend(f"note: {note}" for note in self.notes)
         return out
 

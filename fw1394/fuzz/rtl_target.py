@@ -20,7 +20,8 @@ from pathlib import Path
 from fw1394.fuzz.target import Observation, Observed, TargetCrash, TargetGone, Visibility, Wire
 from fw1394.rtl.defects import RTL_DEFECTS, define
 from fw1394.rtl.portmap import SPEED_NAMES, PortMap, PortMapError, load, split_spec
-from fw1394.rtl.simulation import Simulation, SimulationError
+from fw1394.rtl.refusal import explain, probe_waves
+from fw1394.rtl.simulation import Simulation, SimulationError, cache_dir
 
 #: Campaign speeds: one for every packet, or each packet its own.
 SPEEDS = (*SPEED_NAMES, "mixed")
@@ -62,6 +63,7 @@ class RtlTarget:
         if speed not in SPEEDS:
             raise PortMapError(f"speed {speed!r}: use {', '.join(SPEEDS)}")
         self.speed = speed
+        self._waves = waves
         self._interface: list[str] = []
         self._effects: list[list[tuple[str, int, int | None]]] = []
         self._own = frozenset(portmap.own)
@@ -74,13 +76,21 @@ class RtlTarget:
             raise TargetGone(f"{self.description}: {error}") from None
         if not sim.acked:
             sim.close()
-            raise NeverAcks(
-                f"port map {self.portmap.path.name}: the design never acknowledged a valid "
-                f"quadlet read after reset (within {self.portmap.ack_gap} cycles); check the "
-                "reset polarity, the bit order of CTL and D (ctl0, d0), the pin style, the "
-                "LREQ pin and [phy] ack_gap"
-            )
+            raise NeverAcks(self._refusal())
         return sim
+
+    def _refusal(self) -> str:
+        # The same start again with a waveform (the simulation is deterministic), so
+        # the user can look at what the PHY saw.
+        waves = self._waves or probe_waves(self.portmap, cache_dir())
+        waves.parent.mkdir(parents=True, exist_ok=True)
+        options = {**self._options, "waves": waves}
+        try:
+            sim = Simulation(self.portmap, **options)  # type: ignore[arg-type]
+        except SimulationError:
+            return explain(self.portmap, {}, None)
+        sim.close()
+        return explain(self.portmap, sim.probe, waves)
 
     def exchange(self, batch: list[Wire], now: float) -> list[Observed]:
         try:
@@ -97,6 +107,10 @@ class RtlTarget:
             Observation(ack, None if response is None else bytes.fromhex(response), tenure)
             for ack, response, tenure in answer["replies"]
         ]
+
+    def speed_name_of(self, raw: bytes) -> str:
+        """The speed ``raw`` is delivered at (S100, S200, S400)."""
+        return SPEED_NAMES[self._speed_of(raw)]
 
     def _speed_of(self, raw: bytes) -> int:
         if self.speed != "mixed":

@@ -3,8 +3,10 @@
 Delta debugging on the stream drops the packets the violation does not need;
 then each remaining case packet is simplified (quadlets deleted, header fields
 zeroed with the CRC recomputed or left wrong, data cut) while the violation
-still reproduces with the same oracle and signature. A candidate is kept only
-if it is smaller (shorter, then fewer nonzero bytes), so shrinking ends.
+still reproduces with the same oracle and signature (its verdict class) and
+the packet keeps its kind (its tcode: a quadlet write stays a quadlet write,
+never a block write that happens to fail the same way). A candidate is kept
+only if it is smaller (shorter, then fewer nonzero bytes), so shrinking ends.
 """
 
 from __future__ import annotations
@@ -91,17 +93,25 @@ def _ddmin(stream: list[Entry], still: Callable[[list[Entry]], bool]) -> list[En
 
 def _simplest(stream: list[Entry], index: int, still: Callable[[list[Entry]], bool]) -> Entry:
     entry = stream[index]
+    kind = tcode_of(entry.raw)
     improved = True
     while improved:
         improved = False
         for candidate in _candidates(entry.raw):
             if not candidate or _size(candidate) >= _size(entry.raw):
                 continue  # (an empty packet is nothing sent at all)
+            if tcode_of(candidate) != kind:
+                continue  # another kind of packet: another root cause
             trial = [*stream[:index], entry._replace(raw=candidate), *stream[index + 1 :]]
             if still(trial):
                 entry, improved = trial[index], True
                 break
     return entry
+
+
+def tcode_of(raw: bytes) -> int | None:
+    """The tcode in a packet's first quadlet (None: too short to carry one)."""
+    return raw[3] >> 4 if len(raw) >= 4 else None
 
 
 def _size(raw: bytes) -> tuple[int, int, bytes]:

@@ -16,11 +16,12 @@ from typing import NamedTuple
 from fw1394.engine import Reply
 from fw1394.engine.responder import decode_received
 from fw1394.fuzz.contract import ack_name, family, silence_reason
+from fw1394.fuzz.coverage import outcome
 from fw1394.fuzz.judge import Violation, describe, difference, is_silent, visible
 from fw1394.fuzz.learned import LearnedRegisters
 from fw1394.fuzz.offsets import OffsetModel
 from fw1394.fuzz.reference import Certainty, Reference
-from fw1394.fuzz.target import Observed, Target, TargetCrash, Wire
+from fw1394.fuzz.target import Observation, Observed, Target, TargetCrash, Wire
 from fw1394.fuzz.tunnel import tlabel_of
 from fw1394.packets import (
     AckCode,
@@ -106,6 +107,8 @@ class Trial:
         self.broken = False
         #: The last case as sent (for the campaign's coverage counts).
         self.last_wire = Wire(b"", None, True)
+        #: What the node gave the last case: silence, ack_complete, ... (for coverage).
+        self.last_outcome = "silence"
         self._tlabel = 0
         self._avoid = -1
         self._cases = 0
@@ -237,6 +240,7 @@ class Trial:
             violation = self._judge(sent, reply, certainty, seen)
             if violation is not None:
                 found.append(violation)
+                found += self._hidden_behind(violation, sent, reply, certainty, seen)
         if any(sent.role == "probe" for sent in batch):
             found += self._process_check()
         found += self._interface_check()
@@ -360,6 +364,7 @@ class Trial:
     ) -> Violation | None:
         packet = wire.packet
         kind = family(packet)
+        self.last_outcome = outcome(seen)
         if kind in ("write", "lock"):
             self._write_status = _status(reply, packet, wire.damaged, self.reference)
             if self.learned is not None and packet is not None:
@@ -385,6 +390,21 @@ class Trial:
         if field == "ack":
             field += f":{ack_name(shown.ack)}->{ack_name(seen.ack)}"
         return Violation("reply", f"{kind}:{field}", describe(shown), describe(seen))
+
+    def _hidden_behind(
+        self, violation: Violation, sent: _Sent, reply: Reply, certainty: Certainty, seen: Observed
+    ) -> list[Violation]:
+        # A tenure mismatch is found before the response's fields are compared: a
+        # wrong response in the wrong tenure is two root causes, two findings.
+        if sent.role != "case" or not violation.signature.endswith(":tenure"):
+            return []
+        shown = visible(reply, self.target.visibility)
+        retimed = Observation(seen.ack, seen.response, shown.concatenated)
+        field = difference(shown, retimed, certainty, self.target.visibility, **self._options())
+        if field is None:
+            return []
+        kind = family(sent.wire.packet)
+        return [Violation("reply", f"{kind}:{field}", describe(shown), describe(seen))]
 
     def _judge_sweep(
         self, wire: Wire, field: str | None, shown: Reply, seen: Observed

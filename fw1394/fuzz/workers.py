@@ -98,6 +98,8 @@ def merge(settings: Settings, reports: list[Report], elapsed: float) -> Report:
         report.addressing.update(part.addressing)
         report.checks.update(part.checks)
         report.violations.update(part.violations)
+        report.bins.update(part.bins)
+        report.speeds = part.speeds
         report.notes.extend(n for n in part.notes if n not in report.notes)
     report.findings = merged(*(r.findings for r in reports))
     report.notes.append(f"{len(reports)} workers, seeds {', '.join(_seeds(reports))}")

@@ -16,11 +16,12 @@ from typing import Any
 
 import cocotb
 from cocotb.clock import Clock
+from cocotb.triggers import Timer
 
 from fw1394.boards.registry import make_board
 from fw1394.packets import QuadletReadRequest
 from fw1394.packets.asynchronous import encode_async
-from fw1394.rtl.phy import S400, Limits, Phy
+from fw1394.rtl.phy import BUS_REQUESTS, S400, Limits, Phy
 from fw1394.rtl.portmap import load
 from fw1394.rtl.regbus import RegisterServer
 
@@ -39,6 +40,33 @@ class Node:
         self.config = config
         self.portmap = load(config["portmap"])
         self.phy: Phy | None = None
+        #: What the PHY saw of the design during reset and the check read (for a refusal).
+        self.probe: dict[str, Any] = {}
+        #: The pins the harness drives, as the design saw them at time 0.
+        self.time_zero: dict[str, str] = {}
+
+    def read_time_zero(self) -> None:
+        """Keep the values of the pins the harness drives, as the design sees them."""
+        dut, portmap = self.dut, self.portmap
+        seen = {"phy drives": str(dut.phy_on.value), "reset": str(dut.rst.value)}
+        if portmap.reset_active_low:
+            seen["reset"] = {"0": "1", "1": "0"}.get(seen["reset"], seen["reset"])
+        for role, signal in (("ctl", ("ctl_in", "ctl_pins")), ("d", ("d_in", "d_pins"))):
+            for name in signal:
+                handle = getattr(dut, name, None)
+                if handle is not None:
+                    seen[role] = str(handle.value)
+                    break
+        pins = portmap.pins
+        named = {
+            "phy drives": pins.get("phy_drives", ""),
+            "reset": portmap.reset,
+            "ctl": pins.get("ctl_in", pins.get("ctl", "")),
+            "d": pins.get("d_in", pins.get("d", "")),
+        }
+        self.time_zero = {
+            named[k] or k: v for k, v in seen.items() if named[k] or k != "phy drives"
+        }
 
     async def start(self, *, check: bool = True) -> bool:
         """Reset the design, give it its node ID; whether it acks a valid read."""
@@ -66,6 +94,7 @@ class Node:
         )
         self.dut.rst.value = 1
         await phy.idle(RESET_CYCLES)
+        in_reset = phy.driven + len(phy.seen)
         self.dut.rst.value = 0
         await phy.idle(RESET_CYCLES)
         await phy.bus_reset()
@@ -81,6 +110,17 @@ class Node:
             offset=config.get("check_offset", 0),
         )
         reply = await phy.exchange(encode_async(probe))
+        self.probe = {
+            "requests": [[r.kind, r.payload, r.width] for r in phy.seen],
+            "driven": phy.driven,
+            # Activity while the harness held reset, and none after: reset inverted.
+            "active_in_reset_only": in_reset > 0 and phy.driven + len(phy.seen) == in_reset,
+            "driven_ctl": sorted(phy.driven_ctl),
+            "violations": list(phy.violations),
+            "ack": reply.ack,
+            "granted": any(r.kind in BUS_REQUESTS for r in phy.seen),
+            "time_zero": self.time_zero,
+        }
         phy.violations.clear()
         return reply.ack is not None
 
@@ -138,7 +178,10 @@ async def serve(dut: Any) -> None:
         stream.write(json.dumps(message).encode() + b"\n")
         stream.flush()
 
-    send({"ready": True, "acked": await node.start()})
+    await Timer(1, unit="ps")  # after the harness's time-0 assignments
+    node.read_time_zero()
+    acked = await node.start()
+    send({"ready": True, "acked": acked, "probe": node.probe})
     for line in stream:
         request = json.loads(line)
         op = request.get("op")

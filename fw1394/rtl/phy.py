@@ -140,6 +140,11 @@ class Phy:
         self.set_id()
         self.violations: list[str] = []
         self.requests: deque[Request] = deque()
+        #: Every request decoded, kept for a refusal's account of what the PHY saw.
+        self.seen: list[Request] = []
+        #: Cycles in which the link drove CTL/D, and the CTL values it drove.
+        self.driven = 0
+        self.driven_ctl: set[int] = set()
         self.cycles = 0
         #: Register accesses since the last packet came.
         self.effects: list[Effect] = []
@@ -172,8 +177,13 @@ class Phy:
             mon = int("".join(c if c in "01" else "0" for c in str(value)), 2)
             if mon >> MON_OE & 1:
                 self._violate("undriven-bits", "the link drives X or Z bits on CTL or D")
-        if on and mon >> MON_OE & 1:
-            self._violate("contention", "the link drives CTL/D while the PHY owns the interface")
+        if mon >> MON_OE & 1:
+            self.driven += 1
+            self.driven_ctl.add(mon >> MON_CTL & 3)
+            if on:
+                self._violate(
+                    "contention", "the link drives CTL/D while the PHY owns the interface"
+                )
         self._lreq(mon >> MON_LREQ & 1)
         if mon >> MON_RD & 0xF and self.server is not None:
             self._serve(mon)
@@ -256,7 +266,10 @@ class Phy:
         payload = 0
         for b in bits[3:-1]:
             payload = payload << 1 | b
-        self.requests.append(Request(kind, payload, len(bits) - 4))
+        request = Request(kind, payload, len(bits) - 4)
+        self.requests.append(request)
+        if len(self.seen) < 64:
+            self.seen.append(request)
 
     @property
     def lreq_busy(self) -> bool:

@@ -315,10 +315,19 @@ def harness_verilog(portmap: PortMap) -> str:
     lines = [
         "`timescale 1ns/1ps",
         "module fw1394_harness;",
-        "    reg sclk = 1'b0;",
-        "    reg rst = 1'b1;",
-        "    reg [10:0] phy = 11'h400;",
-        "    reg [31:0] reg_rdata = 32'h0;",
+        # Every pin the harness drives gets its time-0 value from an assignment
+        # after a #0, when every always block of the design already waits: so the
+        # change from X is an event, and `always @(flag)` wrappers run at time 0.
+        "    reg sclk = 1'b0;  // cocotb's clock drives it",
+        "    reg rst;",
+        "    reg [10:0] phy;",
+        "    reg [31:0] reg_rdata;",
+        "    initial begin",
+        "        #0;",
+        "        rst = 1'b1;",
+        "        phy = 11'h400;",
+        "        reg_rdata = 32'h0;",
+        "    end",
         "    wire phy_on = phy[10];",
         "    wire [1:0] phy_ctl = phy[9:8];",
         "    wire [7:0] phy_d = phy[7:0];",

@@ -198,6 +198,8 @@ class Simulation:
         hello = self._receive()
         #: The design acknowledged a valid quadlet read after reset.
         self.acked: bool = hello["acked"]
+        #: What the PHY saw during reset and that read (see :func:`fw1394.rtl.refusal`).
+        self.probe: dict[str, Any] = hello.get("probe", {})
 
     def _receive(self) -> dict[str, Any]:
         # Wait while the simulator lives, however slowly the machine runs it; it

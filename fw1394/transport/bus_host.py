@@ -65,10 +65,16 @@ class EngineTransactionError(errors.TransactionError, RuntimeError):
     fw1394.Timeout`` catches those wherever they come from.
     """
 
-    def __new__(cls, failure: TransactionFailed) -> EngineTransactionError:
-        if cls is EngineTransactionError and failure.reason in _UNANSWERED:
+    def __new__(cls, *args: object, **kwargs: object) -> EngineTransactionError:
+        # Subclasses keep their own constructor arguments; only the base picks.
+        failure = args[0] if args else kwargs.get("failure")
+        if (
+            cls is EngineTransactionError
+            and isinstance(failure, TransactionFailed)
+            and failure.reason in _UNANSWERED
+        ):
             cls = TransactionTimeout
-        return super().__new__(cls, failure)
+        return super().__new__(cls, *args, **kwargs)
 
     def __init__(self, failure: TransactionFailed) -> None:
         self.failure = failure

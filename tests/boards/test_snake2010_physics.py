@@ -167,3 +167,36 @@ def test_held_means_a_span_leaves_the_motor_as_it_is(
     motor.run(start, start + span, STEP, TICKS_PER_SECOND, drive)
     if held or abs(state[0]) < STOP:
         assert held == (_state(motor) == before)
+
+
+# The DC motor the board models, written here from its equations rather than
+# taken from MotorAxis: J dw/dt = Kt I - b w - Tc (for w > 0), with Kt = Ke and
+# the loop current I = (V - Ke w) / (R - Rc), Rc the current compensation.
+
+
+def test_a_motor_at_the_voltage_rail_settles_at_the_dc_motor_speed() -> None:
+    # At the rail V the steady state of the equations is
+    # w = (Ke V / R - Tc) / (b + Ke^2 / R); 0.9 s is over ten time constants.
+    motor = _motor((-STOP / 2, 0.0, 0))
+    motor.run(0, int(0.9 * TICKS_PER_SECOND), STEP, TICKS_PER_SECOND, Drive(True, 13.0, 1.0, 0.0))
+    ke, ohms = CONSTANTS.motor_constant, CONSTANTS.circuit_ohms
+    volts, tc, b = CONSTANTS.max_motor_volts, CONSTANTS.coulomb_friction, CONSTANTS.viscous_friction
+    steady = (ke * volts / ohms - tc) / (b + ke * ke / ohms)
+    assert math.isclose(motor.velocity_rad_s, steady, rel_tol=1e-4)
+
+
+def test_an_over_compensated_loop_drives_the_current_to_the_limit_against_the_back_emf() -> None:
+    # Rc close to R: I = (V - Ke w) / (R - Rc) runs to the limit in the sign of
+    # V - Ke w. At 1000 rad/s the back EMF (10 V) beats a 2 V command, so the
+    # current is -limit and the motor brakes at (Kt limit + b w + Tc) / J.
+    motor = _motor((0.0, 1000.0, 1))
+    limit, seconds = 0.5, 0.001
+    motor.run(
+        0, int(seconds * TICKS_PER_SECOND), STEP, TICKS_PER_SECOND, Drive(True, 2.0, limit, 7.9)
+    )
+    braking = (
+        CONSTANTS.motor_constant * limit
+        + CONSTANTS.viscous_friction * 1000.0
+        + CONSTANTS.coulomb_friction
+    ) / CONSTANTS.inertia
+    assert math.isclose(motor.velocity_rad_s, 1000.0 - braking * seconds, rel_tol=1e-5)

@@ -187,3 +187,60 @@ def test_detect_refuses_what_it_cannot_read(tmp_path: Path) -> None:
         path.write_bytes(content)
         with pytest.raises(sources.SourceError):
             sources.detect(str(path))
+
+
+def test_concatenated_batches_keep_every_packet_and_its_time() -> None:
+    # Packets of 5, 8 and 12 bytes: the 5-byte one is padded to a quadlet in its
+    # buffer, so the later batches' starts move by the earlier buffers' sizes.
+    chunks = [[b"\x01\x02\x03\x04\x05"], [bytes(range(8)), bytes(range(100, 112))], [b"\xff" * 4]]
+    parts: list[batches.Batch] = []
+    wanted: list[tuple[int, bytes]] = []
+    ordinal = 0
+    for chunk in chunks:
+        records: list[BusRecord] = []
+        for data in chunk:
+            ordinal += 1
+            records.append(BusRecord(1_000 * ordinal, RecordType.async_packet, data))
+            wanted.append((1_000 * ordinal, data))
+        parts.append(batches.from_records(records, list(range(len(records)))))
+    joined = batches.concat(parts)
+    assert [(int(joined.ts_ns[i]), joined.packet(i)) for i in range(len(joined))] == wanted
+
+
+def test_concatenating_nothing_is_an_empty_batch() -> None:
+    joined = batches.concat([])
+    assert len(joined) == 0 and not joined.issues
+
+
+def _pcapng_block(kind: int, body: bytes) -> bytes:
+    """A pcapng block (little-endian section): type, total length, body, total length."""
+    return struct.pack("<II", kind, 12 + len(body)) + body + struct.pack("<I", 12 + len(body))
+
+
+def test_a_pcapng_written_from_the_format_spec_reads_microseconds_and_flags_a_bad_interface(
+    tmp_path: Path,
+) -> None:
+    # pcapng (draft-ietf-opsawg-pcapng): a Section Header Block, one Interface
+    # Description Block of link type 147 without if_tsresol (so microseconds), then
+    # Enhanced Packet Blocks; the second names interface 1, which no IDB defines.
+    shb = _pcapng_block(0x0A0D0D0A, struct.pack("<IHHq", 0x1A2B3C4D, 1, 0, -1))
+    idb = _pcapng_block(1, struct.pack("<HHI", 147, 0, 0))
+    # docs/capture-format.md: version 1, 12 bytes, async, S400, crc present and valid,
+    # generation 5, sender 1, a passive tap; then its example quadlet read request.
+    pseudo = struct.pack(">BBBBHBBBBH", 1, 12, 0, 2, 0x3, 0, 5, 1, 0xFF, 0)
+    packet = pseudo + bytes.fromhex("ffc00c40ffc1fffff000040011ab9b77")
+    micros = 1_700_000_000_123_456
+
+    def epb(interface: int) -> bytes:
+        stamp = struct.pack("<III", interface, micros >> 32, micros & 0xFFFFFFFF)
+        return _pcapng_block(6, stamp + struct.pack("<II", len(packet), len(packet)) + packet)
+
+    path = tmp_path / "spec.pcapng"
+    path.write_bytes(shb + idb + epb(0) + epb(1))
+    fmt = sources.detect(str(path))
+    (batch,) = [job() for job in sources.jobs(str(path), fmt)]
+    assert [int(t) for t in batch.ts_ns] == [micros * 1000]
+    assert batch.packet(0) == packet[12:]
+    assert [issue.message for issue in batch.issues] == [
+        "packet block with a bad length or interface"
+    ]

@@ -68,3 +68,28 @@ def test_numbers_beyond_their_fields_are_a_one_line_error(
 def test_the_same_line_in_range_decodes() -> None:
     line = b"[ 12.000001] firewire_ohci 0000:05:00.0: AR evt_bus_reset, generation 2\n"
     assert BY_NAME["kernel"].decode(line) == 1
+
+
+@pytest.mark.parametrize(
+    ("option", "value"),
+    [(9, bytes([127])), (9, bytes([28])), (14, (2**62).to_bytes(8, "little"))],
+    ids=["if_tsresol 10^-127", "if_tsresol 10^-28", "if_tsoffset 2^62 s"],
+)
+def test_pcapng_time_options_beyond_int64_nanoseconds_decode(option: int, value: bytes) -> None:
+    # An interface whose time resolution or offset no int64 nanosecond count can
+    # hold (pcapng: if_tsresol is option 9, if_tsoffset option 14) is read, not fatal.
+    options = option.to_bytes(2, "little") + len(value).to_bytes(2, "little")
+    options += value + bytes(-len(value) % 4) + bytes(4)
+    idb_body = (147).to_bytes(2, "little") + bytes(2) + bytes(4) + options
+    shb_body = (0x1A2B3C4D).to_bytes(4, "little") + (1).to_bytes(2, "little") + bytes(2)
+    shb_body += (2**64 - 1).to_bytes(8, "little")
+    packet = bytes.fromhex("010c0002000b020501ff0000ffc00c40ffc1fffff000040011ab9b77")
+    epb_body = bytes(4) + (5).to_bytes(4, "little") + (7).to_bytes(4, "little")
+    epb_body += len(packet).to_bytes(4, "little") * 2 + packet
+
+    def block(kind: int, body: bytes) -> bytes:
+        size = (12 + len(body)).to_bytes(4, "little")
+        return kind.to_bytes(4, "little") + size + body + size
+
+    data = block(0x0A0D0D0A, shb_body) + block(1, idb_body) + block(6, epb_body)
+    assert BY_NAME["pcapng"].decode(data) == 1

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from fw1394.crc import CHECK_VALUE, crc32, data_crc, header_crc, padded
+from fw1394.crc import CHECK_VALUE, crc16_1212, crc32, data_crc, header_crc, padded
 
 VECTORS = Path(__file__).parents[1] / "vectors"
 REFERENCE = json.loads((VECTORS / "crc32_reference_computed.json").read_text())
@@ -53,3 +53,26 @@ def test_captured_datagrams(vector: dict[str, object]) -> None:
 def test_data_crc_pads_to_quadlet() -> None:
     assert padded(b"\x01") == b"\x01\x00\x00\x00"
     assert data_crc(b"\x01\x02") == crc32(b"\x01\x02\x00\x00")
+
+
+def _crc16_by_nibbles(data: bytes) -> int:
+    """IEEE 1212's configuration-ROM CRC as the standard states it, four bits at a time."""
+    crc = 0
+    for index in range(0, len(data), 4):
+        quadlet = int.from_bytes(data[index : index + 4], "big")
+        for shift in (28, 24, 20, 16, 12, 8, 4, 0):
+            total = ((crc >> 12) ^ (quadlet >> shift)) & 0xF
+            crc = ((crc << 4) ^ (total << 12) ^ (total << 5) ^ total) & 0xFFFF
+    return crc
+
+
+@pytest.mark.parametrize(
+    "data",
+    [
+        bytes(4),
+        bytes.fromhex("31333934 00ffa000 fa610e06 00000000"),  # a QLA bus-info block
+        bytes(range(64)),
+    ],
+)
+def test_crc16_1212_is_the_standards_nibble_algorithm(data: bytes) -> None:
+    assert crc16_1212(data) == _crc16_by_nibbles(data)

@@ -72,6 +72,7 @@ def cli(*args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(command, capture_output=True, text=True, timeout=900, check=False)
 
 
+@pytest.mark.timeout(900)  # a minute or two alone; more on a loaded machine
 def test_one_campaign_finds_shrinks_and_replays_every_planted_defect(tmp_path: Path) -> None:
     port = free_port()
     restart = restart_script(tmp_path, port)

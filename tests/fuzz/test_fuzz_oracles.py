@@ -7,7 +7,7 @@ from fw1394.fuzz import malform
 from fw1394.fuzz.clock import SimulatedClock
 from fw1394.fuzz.contract import CONTRACTS, silence_reason
 from fw1394.fuzz.inproc import InprocTarget
-from fw1394.fuzz.judge import Violation, difference, visible
+from fw1394.fuzz.judge import Violation, difference, visible, wire_size
 from fw1394.fuzz.offsets import offset_model
 from fw1394.fuzz.reference import Certainty, Reference
 from fw1394.fuzz.target import Observation, Visibility
@@ -169,3 +169,34 @@ def test_without_acks_a_response_needs_its_label() -> None:
     # The requests come from 0xFFC1 (the default source): so must their answers.
     replies.on_response(encode(QuadletReadResponse(destination_id=0xFFC1, tlabel=6)), acked=False)
     assert replies.complete(acks=False)
+
+
+def test_difference_at_exact_certainty_still_compares_acks_and_tenure() -> None:
+    want = Reply(AckCode.ack_pending, QuadletReadResponse(tlabel=1, quadlet_data=1), True)
+    full = Visibility()
+    wrong_ack = Observation(AckCode.ack_complete, want.response, True)
+    assert difference(want, wrong_ack, Certainty.exact, full, node_bits_only=False) == "ack"
+    split = Observation(AckCode.ack_pending, want.response, False)
+    assert difference(want, split, Certainty.exact, full, node_bits_only=False) == "tenure"
+    # Without a header model the tenure is not vouched for.
+    assert difference(want, split, Certainty.presence, full, node_bits_only=False) is None
+
+
+def test_difference_with_node_bits_only_ignores_the_bus_id_of_the_source() -> None:
+    # IEEE 1394 node ID: bus ID in bits 15..6, physical ID in 5..0.
+    want = Reply(AckCode.ack_pending, QuadletReadResponse(tlabel=1, source_id=0xFFC0), True)
+    local_bus = Observation(
+        AckCode.ack_pending, QuadletReadResponse(tlabel=1, source_id=0x0000), True
+    )
+    full = Visibility()
+    assert difference(want, local_bus, Certainty.header, full, node_bits_only=True) is None
+    assert difference(want, local_bus, Certainty.header, full, node_bits_only=False) == "source_id"
+
+
+def test_wire_size_counts_header_crcs_and_padded_data() -> None:
+    # IEEE 1394: a quadlet read request is 3 header quadlets and the header CRC; a
+    # block write adds its data padded to quadlets and the data CRC.
+    assert wire_size(QuadletReadRequest(destination_id=NODE)) == 16
+    assert wire_size(QuadletWriteRequest(destination_id=NODE)) == 20
+    block = BlockWriteRequest(destination_id=NODE, data=b"\x01\x02\x03\x04\x05")
+    assert wire_size(block) == 20 + 8 + 4

@@ -7,6 +7,7 @@ from hypothesis import strategies as st
 
 from fw1394.packets import Ack, decode, encode
 from fw1394.packets.ack import ACK_BYTES, ACK_LAYOUT, ack_byte, ack_code, ack_parity_ok
+from fw1394.packets.render import summary
 from fw1394.transport import wire
 
 
@@ -40,3 +41,12 @@ def test_decoder_equals_construct_parse(byte: int) -> None:
 @given(st.integers(-64, 64))
 def test_encoder_keeps_the_low_four_bits_like_before(code: int) -> None:
     assert ack_code(ack_byte(code)) == code & 0xF
+
+
+def test_the_summary_flags_bad_parity_only() -> None:
+    # IEEE 1394-1995 §6.2.4.3: the check nibble is the code's complement.
+    good = decode(bytes([0x1E]), kind="ack", strict=False)
+    bad = decode(bytes([0x1F]), kind="ack", strict=False)
+    assert isinstance(good, Ack) and isinstance(bad, Ack)
+    assert summary(good) == "ack_complete"
+    assert summary(bad) == "ack_complete [bad parity]"

@@ -49,3 +49,11 @@ def test_sizes_equal_built_datagrams(tlabel: int, data: bytes) -> None:
     block = encode(BlockReadResponse(**route, data=data, data_length=len(data)))
     assert len(quadlet) + e.EXTRA_SIZE == e.expected_response_size()
     assert len(block) + e.EXTRA_SIZE == e.expected_response_size(len(data))
+
+
+def test_usable_write_size_is_the_largest_whole_quadlet_count() -> None:
+    # Block writes carry whole quadlets: the usable size is the largest multiple of
+    # 4 that fits, for every MTU (the raw limit is odd or even as the MTU is).
+    for mtu in range(200, 1600):
+        usable, limit = e.usable_write_data_size(mtu), e.max_write_data_size(mtu)
+        assert usable % 4 == 0 and limit - 4 < usable <= limit, mtu

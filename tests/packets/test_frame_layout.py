@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import struct
 
+import construct
 import pytest
 from construct import ConstError
 from hypothesis import given
 from hypothesis import strategies as st
 
+from fw1394.packets.bitfields import flatten
 from fw1394.packets.frame import (
     ACK_FRAME,
     ACK_FRAME_FORMAT,
@@ -147,3 +149,20 @@ def test_the_station_receive_path_reads_what_the_layout_says(fields: dict[str, i
     raw = FRAME_HEADER.build(fields)
     assert station._PREFIX == wire.HEADER_PREFIX == raw[: len(wire.HEADER_PREFIX)]
     assert station._FIELDS.unpack_from(raw) == wire.HEADER_VALUES.unpack_from(raw)
+
+
+def test_flattened_fields_span_their_bits() -> None:
+    # A 16-bit field covers bits 15..0 of its two bytes; a bit struct's fields run
+    # from the byte's most significant bit down, in declaration order.
+    layout = construct.Struct(
+        "word" / construct.Int16ub,
+        "bits"
+        / construct.BitStruct("high" / construct.BitsInteger(3), "low" / construct.BitsInteger(5)),
+    )
+    assert [
+        (f.name, f.byte_offset, f.byte_size, f.msb, f.lsb, f.width) for f in flatten(layout)
+    ] == [
+        ("word", 0, 2, 15, 0, 16),
+        ("bits.high", 2, 1, 7, 5, 3),
+        ("bits.low", 2, 1, 4, 0, 5),
+    ]

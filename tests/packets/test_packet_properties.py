@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+from typing import Any
 
 import pytest
 from hypothesis import given, settings
@@ -15,9 +16,12 @@ from fw1394.packets import (
     LAYOUTS,
     Ack,
     AsyncPacket,
+    BlockReadRequest,
+    BlockWriteRequest,
     PacketError,
     PhyPacket,
     QuadletReadRequest,
+    QuadletWriteRequest,
     TCode,
     decode,
     encode,
@@ -26,6 +30,7 @@ from fw1394.packets import (
 from fw1394.packets.asynchronous import decode_async, stored_header_fields
 from fw1394.packets.fast import (
     FIELD_NAMES,
+    builder,
     decode_header,
     decode_packet,
     decode_sound,
@@ -176,3 +181,22 @@ def test_decode_sound_is_strict_decode(blob: bytes) -> None:
         assert decode_sound(blob) is None
         return
     assert decode_sound(blob) == expected
+
+
+@pytest.mark.parametrize(
+    ("cls", "names", "values"),
+    [
+        (BlockWriteRequest, ("destination_id", "tlabel", "data"), (0xFFC0, 5, b"\x01\x02\x03")),
+        (BlockWriteRequest, ("destination_id",), (0xFFC1,)),
+        (BlockReadRequest, ("destination_id", "data_length"), (0xFFC0, 64)),
+        (QuadletWriteRequest, ("destination_id", "quadlet_data"), (0xFFC2, 0xCAFEF00D)),
+    ],
+)
+def test_a_builder_makes_what_the_constructor_makes(
+    cls: type[AsyncPacket], names: tuple[str, ...], values: tuple[Any, ...]
+) -> None:
+    built = builder(cls, *names)(*values)
+    assert built == cls(**dict(zip(names, values, strict=True)))
+    data = getattr(built, "data", None)
+    if data is not None and "data_length" not in names:
+        assert built.data_length == len(data)  # type: ignore[attr-defined]

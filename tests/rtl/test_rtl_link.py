@@ -167,23 +167,66 @@ def test_every_pin_style_reads_and_writes(spec: str, board_id: int, tmp_path: Pa
         sim.close()
 
 
-@pytest.mark.parametrize(
-    "change",
-    [
-        ('reset_active = "high"', 'reset_active = "low"'),
-        ('ctl = "ctl"', 'ctl = "ctl"\nctl0 = "lsb"'),
-    ],
-    ids=["reset-polarity", "ctl-bit-order"],
-)
-def test_a_map_under_which_the_design_never_acks_is_refused(
-    tmp_path: Path, change: tuple[str, str]
-) -> None:
+def _changed_own_map(tmp_path: Path, change: tuple[str, str]) -> Path:
     text = load("thesis-own").path.read_text().replace(*change)
     text = text.replace("@hdl/", str(load("thesis-own").sources[0].parent) + "/")
     path = tmp_path / "wrong.toml"
     path.write_text(text)
-    with pytest.raises(NeverAcks, match="never acknowledged a valid quadlet read"):
+    return path
+
+
+@pytest.mark.parametrize(
+    ("broken", "saw", "likely"),
+    [
+        (
+            ('reset_active = "high"', 'reset_active = "low"'),
+            ["no LREQ stream", "at time 0 the design saw rst=0,"],
+            "reset_active is probably not low",
+        ),
+        (
+            ('ctl = "ctl"', 'ctl = "ctl"\nctl0 = "lsb"'),
+            ["LREQ RdReg 0", "the link never drove CTL/D", "no grant requested, no ack"],
+            "check the bit order (ctl0, d0)",
+        ),
+        (
+            None,
+            ["LREQ RdReg 0", "the link never drove CTL/D", "at time 0 the design saw rst=1,"],
+            "reads the PHY's pins rather than its own output registers",
+        ),
+    ],
+    ids=["wrong-polarity", "wrong-bit-order", "reads-own-output"],
+)
+def test_a_refused_map_says_what_the_phy_saw(
+    tmp_path: Path, broken: tuple[str, str] | None, saw: list[str], likely: str
+) -> None:
+    path = HERE / "own_output.toml" if broken is None else _changed_own_map(tmp_path, broken)
+    with pytest.raises(NeverAcks) as refusal:
         RtlTarget(load(path), node_id=0xFFC0)
+    message = str(refusal.value)
+    assert "\n" not in message and "never acknowledged a valid quadlet read" in message
+    for fact in saw:
+        assert fact in message, message
+    assert "Likely: the design" in message and likely in message
+    # The probe's waveform is always kept, and named.
+    waves = Path(message.rsplit("waveform of the probe: ", 1)[1])
+    text = waves.read_text()
+    assert "$scope module fw1394_harness" in text and " lreq " in text
+
+
+def test_the_harness_drives_its_pins_with_an_event_at_time_0() -> None:
+    # variant_flag_event.v follows the PHY-drives flag with `always @(flag)`: it
+    # sees the flag only if its time-0 value arrives as an event.
+    sim = Simulation(load(HERE / "flag_event.toml"), physical_id=0)
+    try:
+        assert sim.acked
+        assert sim.probe["time_zero"] == {
+            "phy_owns": "1",
+            "reset": "1",
+            "ctl_in": "00",
+            "d_in": "00000000",
+        }
+    finally:
+        sim.close()
 
 
 def test_a_waveform_of_the_run_is_written(tmp_path: Path) -> None:

@@ -14,10 +14,12 @@ import sys
 from pathlib import Path
 
 import pytest
+from rtl_support import bad_crc_writes
 
 from fw1394.cli.main import main
 from fw1394.engine import THESIS_FPGA, Responder
 from fw1394.fuzz.campaign import run
+from fw1394.fuzz.coverage import space
 from fw1394.fuzz.reference import board
 from fw1394.fuzz.rtl_target import RtlTarget
 from fw1394.fuzz.settings import Settings
@@ -51,7 +53,7 @@ def test_verdicts_do_not_change_when_the_machine_is_loaded() -> None:
         "rtl:thesis",
         defects=("no-second-grant", "bad-crc-write"),
         seed=3,
-        max_cases=40,
+        max_cases=bad_crc_writes(3, 2000)[0] + 5,
         shrink_budget=0,
         speed="mixed",
     )
@@ -178,3 +180,20 @@ def test_speed_and_clock_are_for_rtl_targets(capsys: pytest.CaptureFixture[str])
         main(["fuzz", "run", "rtl:thesis", "--speed", "S800", "--max-cases", "1"])
     assert exit_status.value.code == 2
     assert "invalid choice: 'S800'" in capsys.readouterr().err
+
+
+def test_functional_coverage_counts_every_case_in_one_bin() -> None:
+    report = run(Settings("rtl:thesis", seed=2, max_cases=60, shrink_budget=0, speed="mixed"))
+    coverage = report.to_json()["coverage"]
+    bins, missed = coverage["bins"], coverage["never_hit"]
+    assert sum(bins.values()) == 60
+    assert {name.split("/")[2] for name in bins} == {"S100", "S200", "S400"}
+    # quadlet reads to this node are answered ack_pending at every speed...
+    hit = [n for n in bins if n.startswith("read_quadlet_request/ack_pending/")]
+    assert hit and all(n.endswith("/none/ours") for n in hit)
+    # ...and nothing hit is listed as never hit; writes never get ack_pending here.
+    assert not set(missed) & set(bins)
+    assert "write_quadlet_request/ack_pending/S400/quadlet/ours" in missed
+    assert len(missed) + len(set(bins) & set(space(("S100", "S200", "S400")))) == len(
+        space(("S100", "S200", "S400"))
+    )

@@ -6,7 +6,7 @@ import pytest
 from fake_bus import FAKE_TIMING, FakeBus, settled
 
 from fw1394.packets import PortStatus, SelfIdPacket, decode
-from fw1394.transport.membership import BusReset, Membership, Refused, Role
+from fw1394.transport.membership import BusReset, Membership, Refused, Role, Timing
 from fw1394.transport.wire import MAX_MEMBERS, MemberInfo
 
 
@@ -119,3 +119,40 @@ def test_two_lone_coordinators_merge(ranks: tuple[int, int]) -> None:
     _, members = settled(bus)
     assert sorted(m.rank for m in members) == sorted(ranks)
     assert first.generation == second.generation
+
+
+@pytest.mark.parametrize(("wait", "resets"), [(0.1, 2), (0.5, 1)])
+def test_a_rejoin_after_half_a_lease_is_one_reset(wait: float, resets: int) -> None:
+    # A join from a listed member within half a lease of a reset was sent before
+    # that reset reached it and is ignored (the leave makes one reset, the repeated
+    # join a second); later, leave and join share one reset. A lease of 0.8 s puts
+    # half a lease (0.4 s) apart from a lease squared (0.64 s).
+    timing = Timing(heartbeat=0.1, lease=0.8, join_retry=0.05, settle=0.002, self_id_timeout=0.5)
+    bus = FakeBus(timing)
+    coordinator, member = bus.add(0), bus.add(1)
+    bus.run(2.0)
+    settled(bus)
+    coordinator.request_reset(bus.now)
+    bus.run(0.02)
+    before, _ = settled(bus)
+    bus.run(wait)
+    member.rejoin(bus.now)
+    bus.run(1.0)
+    after, members = settled(bus)
+    assert [m.rank for m in members] == [0, 1]
+    assert after - before == resets
+
+
+def test_a_joiner_sleeps_until_its_next_join_retry_or_the_end_of_its_lease() -> None:
+    # A joiner asks every join_retry and founds its own bus after a lease of silence;
+    # its station sleeps until whichever comes first.
+    # (Binary fractions: the sums are exact.)
+    timing = Timing(heartbeat=0.125, lease=0.5, join_retry=0.375, settle=0.002, self_id_timeout=0.5)
+    joiner = Membership(MemberInfo(1000, 0), 0.25, timing)
+    joiner.tick(0.25)  # the first join
+    assert joiner.role is Role.joining
+    assert joiner.next_deadline() == 0.625  # the next join
+    joiner.tick(0.625)
+    assert joiner.next_deadline() == 0.75  # the lease's end
+    joiner.tick(0.75)
+    assert joiner.role.name == "coordinator"  # by name: mypy would keep the narrowing above

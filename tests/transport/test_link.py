@@ -259,3 +259,64 @@ def test_a_damaged_response_is_discarded_unacked(flip: int) -> None:
     (failure,) = requester.events()
     assert isinstance(failure, TransactionFailed) and failure.transaction == tid
     assert failure.reason == FailureReason.response_timeout
+
+
+class _ClockedSpace(MemorySpace):
+    """A memory board that remembers the clock each request brought it."""
+
+    def __init__(self) -> None:
+        super().__init__(4096)
+        self.clock: list[int] = []
+
+    def set_time(self, ticks: int) -> None:
+        self.clock.append(ticks)
+        super().set_time(ticks)
+
+
+class _ReferenceResponder(Responder):
+    """The same rules, but not the class the link's fast path takes."""
+
+
+@pytest.mark.parametrize("responder_class", [Responder, _ReferenceResponder])
+def test_the_board_clock_counts_from_the_links_epoch(responder_class: type[Responder]) -> None:
+    # The boards count 49.152 MHz ticks (thesis §6.3) from their node's start, so a
+    # request arriving 0.5 s after an epoch of 100 s finds the clock at 0.5 s of ticks,
+    # on the fast path and on the reference path alike.
+    space = _ClockedSpace()
+    responder = responder_class(node_id=0xFFFF, space=space, policy=THESIS_FPGA)
+    sent: Sent = []
+    link = ResponderLink(responder, lambda k, d, p: sent.append((k, d, p)), epoch=100.0)
+    link.apply([BusReset(generation=0, phy_id=NODE_PHY, members=(), initiator=0)])
+    request = QuadletReadRequest(destination_id=NODE_ID, tlabel=1, source_id=HOST_ID, offset=0x40)
+    link.take(frame(sequence=1), encode_packet(request), 100.5)
+    assert sent and space.clock[-1] == 49_152_000 // 2
+
+
+class _DelayingStation:
+    """A station holding one delayed frame due at ``wake_by``; it counts its services."""
+
+    def __init__(self, wake_by: float) -> None:
+        self.wake_by = wake_by
+        self.serviced: list[float | None] = []
+
+    def service(self, now: float | None = None) -> None:
+        self.serviced.append(now)
+
+    def changes(self) -> list[object]:
+        return []
+
+    def next_deadline(self) -> float:
+        return 10.0
+
+
+def test_the_timers_run_once_a_delayed_frame_is_due_and_not_before() -> None:
+    # Station.wake_by: owners call service() by then, even when no timer of the
+    # membership is due yet (here at 10 s).
+    station = _DelayingStation(wake_by=5.0)
+    link = ResponderLink(Responder(node_id=0xFFFF, space=MemorySpace(16)), lambda k, d, p: None)
+    link.station = cast(Station, station)
+    link.due = 10.0
+    link.keep_timers(4.0)
+    assert station.serviced == []
+    link.keep_timers(6.0)
+    assert station.serviced == [6.0]

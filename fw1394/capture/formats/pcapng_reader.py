@@ -256,11 +256,15 @@ def _to_ns(stamp: np.ndarray, info: _Interface) -> np.ndarray:
     offset = info.offset_s * 1_000_000_000
     if base == 10 and exponent <= 9:
         scaled = stamp.astype(_I64) * _I64(10 ** (9 - exponent))
-    elif base == 10:
+    elif base == 10 and exponent - 9 < 20:  # 10**19 is the largest power in a uint64
         scaled = (stamp // np.uint64(10 ** (exponent - 9))).astype(_I64)
+    elif base == 10:
+        scaled = np.zeros(len(stamp), _I64)  # units far below a nanosecond: all round to 0
     else:
         scaled = (stamp.astype(np.float64) * 1e9 / float(1 << exponent)).astype(_I64)
-    return scaled + _I64(offset)
+    # A damaged if_tsoffset can exceed what int64 nanoseconds hold: clamp, don't overflow.
+    limit = int(np.iinfo(_I64).max)
+    return scaled + _I64(max(-limit, min(limit, offset)))
 
 
 class _EpbRuns:
