@@ -62,7 +62,8 @@ def measure(packet: AsyncPacket, seconds: float) -> dict[str, float]:
 
 def bulk_per_packet(seconds: float, verify_crc: bool, count: int = 100_000) -> float:
     """Seconds per packet of the vectorised header decoder over a batch of packets."""
-    from fw1394.capture.analysis import batch, columns
+    from fw1394.capture.analysis import columns
+    from fw1394.capture.formats import batch
     from fw1394.capture.formats.record import BusRecord, RecordType
 
     kinds = list(SAMPLES.values())[:2]

@@ -20,6 +20,7 @@ from pathlib import Path
 
 from fw1394.boards.registry import board_kind
 from fw1394.boards.regmap import markdown_table
+from fw1394.errors import UsageError
 
 _BLOCK = re.compile(
     r"(?P<open><!-- registers (?P<kind>\S+) (?P<group>\S+) (?P<header>\S+)"
@@ -28,7 +29,7 @@ _BLOCK = re.compile(
 )
 
 
-class RegisterDocError(ValueError):
+class RegisterDocError(UsageError):
     """A marked table names a kind or group the registry does not have."""
 
 

@@ -200,7 +200,17 @@ def _bus_handler(action: str) -> Any:
         "down": bus_down,
         "key": bus_key,
     }
-    return handlers[action]
+    handler = handlers[action]
+
+    def checked(args: argparse.Namespace) -> int:
+        from fw1394.transport.runtime import RuntimeRootError
+
+        try:
+            return handler(args)
+        except RuntimeRootError as error:  # someone else's runtime root: one line
+            raise CliError(str(error)) from None
+
+    return checked
 
 
 # -- handlers -----------------------------------------------------------------------------

@@ -11,10 +11,11 @@ from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
+from fw1394.errors import UsageError
 from fw1394.packets import hextext
 
 
-class CliError(Exception):
+class CliError(UsageError):
     """A problem with the user's input or environment, printed as one line."""
 
 

@@ -265,6 +265,7 @@ def run_serve(args: argparse.Namespace) -> int:
     from fw1394.fuzz.serve import ServeError, TunnelNode, loopback_address
     from fw1394.fuzz.settings import Settings, SettingsError, default_policy
     from fw1394.fuzz.targets import check
+    from fw1394.transport.udp_ports import PortInUseError, refuse_taken_port
 
     if args.parent_pid is not None:
         from fw1394.transport.procs import die_with_parent
@@ -279,6 +280,10 @@ def run_serve(args: argparse.Namespace) -> int:
     if args.duration is not None and args.duration <= 0:
         raise CliError("--duration must be positive")
     policy = CONTRACTS[args.policy or default_policy(args.board)]
+    try:
+        refuse_taken_port(*address)
+    except PortInUseError as error:
+        raise CliError(str(error)) from None
     try:
         node = TunnelNode(
             address,

@@ -17,6 +17,7 @@ from types import FrameType
 from typing import Any
 
 from fw1394.cli.common import CliError, integer, print_table
+from fw1394.errors import Error
 
 EXAMPLES = """\
 examples:
@@ -59,6 +60,12 @@ def register(subparsers: Any) -> None:
         "--git-description", type=integer, default=0, help="GIT_DESC register (default 0)"
     )
     serve.add_argument("--duration", type=float, default=None, help="stop after this many s")
+    serve.add_argument(
+        "--reuse-port",
+        action="store_true",
+        help="share the port with a server that already holds it (both then get the "
+        "host's datagrams); without it, a port in use is refused, naming its holder",
+    )
     serve.set_defaults(handler=run_serve)
     for name, text in (
         ("scan", "the host's start-up scan"),
@@ -110,6 +117,7 @@ def run_serve(args: argparse.Namespace) -> int:
     from fw1394.boards.qla1.eth_server import Eth1394Server
     from fw1394.boards.qla1.rack import Rack
     from fw1394.transport.eth1394_addresses import AddressRefusedError, parse_endpoint
+    from fw1394.transport.udp_ports import PortInUseError
 
     try:
         endpoint = parse_endpoint(args.eth1394)
@@ -124,8 +132,8 @@ def run_serve(args: argparse.Namespace) -> int:
             fpga_version=args.fpga_version,
             git_description=args.git_description,
         )
-        server = Eth1394Server(rack, endpoint)
-    except (AddressRefusedError, ValueError) as error:
+        server = Eth1394Server(rack, endpoint, share_port=args.reuse_port)
+    except (AddressRefusedError, PortInUseError, ValueError) as error:
         raise CliError(str(error)) from None
     except PermissionError:
         raise CliError(
@@ -171,7 +179,7 @@ def run_serve(args: argparse.Namespace) -> int:
     return 0
 
 
-class _Stopped(Exception):
+class _Stopped(Error):
     """SIGTERM or SIGINT ended ``jhu serve``."""
 
 
@@ -266,13 +274,17 @@ def _run_access(client: Any, scan: Any, args: argparse.Namespace) -> int:
 
 
 def _run_rt(client: Any, scan: Any, args: argparse.Namespace) -> int:
+    from fw1394.jhu.hub_parse import MixedFirmwareError
     from fw1394.jhu.rt_loop import RealTimeLoop, measure
     from fw1394.jhu.scan import Protocol
 
     if args.cycles < 1:
         raise CliError(f"--cycles {args.cycles}: give 1 or more")
     protocol = Protocol(args.protocol) if args.protocol else None
-    loop = RealTimeLoop(client, scan, protocol)
+    try:
+        loop = RealTimeLoop(client, scan, protocol)
+    except MixedFirmwareError as error:
+        raise CliError(f"--protocol {args.protocol}: {error}") from None
     # Everything the loop needs exists now and lives to the end: kept out of the
     # collector's sweeps, which each cycle's short-lived objects keep triggering.
     gc.freeze()

@@ -53,15 +53,17 @@ def member_kinds(bus: str, me: Any, members: Sequence[Any]) -> list[str | None]:
     return [None if m.host else member_kind(bus, me, m) for m in members]
 
 
-def read_rom(port: Any, node: int) -> dict[int, int] | None:
-    """The quadlets of ``node``'s configuration ROM by CSR offset; None if it has none."""
+def read_rom(port: Any, node: int, generation: int) -> dict[int, int] | None:
+    """The quadlets of ``node``'s configuration ROM by CSR offset; None if it has none.
+
+    Every read is pinned to ``generation``, the one ``node`` was listed in."""
     from fw1394.capture.analysis.csr import CONFIG_ROM, CSR_BASE
     from fw1394.capture.analysis.rom_decode import decode_rom
     from fw1394.transport.bus_host import TransactionError
 
     quadlets: dict[int, int] = {}
     try:
-        quadlets[CONFIG_ROM] = port.read_quadlet(node, CSR_BASE + CONFIG_ROM)
+        quadlets[CONFIG_ROM] = port.read_quadlet(node, CSR_BASE + CONFIG_ROM, generation=generation)
         if quadlets[CONFIG_ROM] == 0:
             return None  # a ROM header of 0 describes no bus information block
         for _ in range(_ROM_QUADLETS):
@@ -69,7 +71,9 @@ def read_rom(port: Any, node: int) -> dict[int, int] | None:
             if not wanted:
                 break
             for address in wanted:
-                quadlets[address] = port.read_quadlet(node, CSR_BASE + address)
+                quadlets[address] = port.read_quadlet(
+                    node, CSR_BASE + address, generation=generation
+                )
     except TransactionError:
         return quadlets if len(quadlets) > 1 else None
     return quadlets
@@ -118,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
                     "board_id": None if member.board_id == 0xFF else member.board_id,
                     "pid": member.pid,
                 }
-                row.update(describe_rom(read_rom(port, phy)))
+                row.update(describe_rom(read_rom(port, phy, generation)))
                 rows.append(row)
         except port_errors() as error:
             raise CliError(str(error)) from None

@@ -2,8 +2,9 @@
 
 Every module in :mod:`fw1394.cli` that defines ``register(subparsers)`` adds its
 subcommands; a subcommand's handler takes the parsed namespace and returns an
-exit status. Errors meant for the user are raised as :class:`CliError` (or the
-codec's :class:`~fw1394.packets.PacketError`) and printed as one line.
+exit status. Every error the library raises on purpose derives from
+:class:`fw1394.Error`; :func:`main` prints any of them as one line on stderr and
+exits with status 2, here and nowhere else, so commands let them propagate.
 """
 
 from __future__ import annotations
@@ -16,8 +17,8 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, NoReturn
 
 import fw1394
-from fw1394.cli.common import CliError, fail, reported_write_errors
-from fw1394.packets import PacketError
+from fw1394.cli.common import fail, reported_write_errors
+from fw1394.errors import Error
 
 if TYPE_CHECKING:
     from _typeshed import SupportsWrite
@@ -93,8 +94,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 parser.print_help()
                 return 0
             status: int = args.handler(args)
-    except (CliError, PacketError) as error:
-        return fail(str(error))
+    except Error as error:
+        return fail(" ".join(str(error).split()) or type(error).__name__)
     except KeyboardInterrupt:
         print("fw1394: interrupted", file=sys.stderr)
         return 130

@@ -15,7 +15,7 @@ from typing import Any
 
 from fw1394.cli.attach import add_attach_options, open_port, port_errors
 from fw1394.cli.bus import add_bus_options, add_member_options
-from fw1394.cli.common import CliError, hex_bytes, integer, print_table
+from fw1394.cli.common import CliError, fail, hex_bytes, integer, print_table
 
 EPILOG = """\
 examples:
@@ -126,6 +126,7 @@ def run(args: argparse.Namespace) -> int:
     from fw1394.packets import AckCode, name_of
     from fw1394.packets.accessors import DESTINATION_ID
     from fw1394.packets.nodeid import BROADCAST_PHY, node_id, phy_of
+    from fw1394.transport.bus_host import StaleGenerationError
 
     if not 0 < args.wait <= MAX_WAIT:
         raise CliError(f"--wait {args.wait:g}: use more than 0 and at most {MAX_WAIT:g} s")
@@ -154,9 +155,13 @@ def run(args: argparse.Namespace) -> int:
                 if len(packet) < 4:
                     raise CliError(f"a {len(packet)}-byte packet names no destination: add --to")
                 destination = phy_of(DESTINATION_ID.of_bytes(packet))
-            reply = port.send_packet(destination, packet, args.wait)
+            # Pinned to the generation of the member table just read: a packet meant
+            # for this physical ID never reaches whoever holds it after a reset.
+            reply = port.send_packet(destination, packet, args.wait, generation=port.generation)
         except port_errors() as error:
             raise CliError(str(error)) from None
+        except StaleGenerationError as error:
+            return fail(f"send to node {destination}: the bus reset first ({error})", 1)
     sent, response = decoded(packet), decoded(reply.data) if reply.data else None
     result: dict[str, Any] = {
         "to": destination,

@@ -22,6 +22,8 @@ crc32: Callable[[bytes], int] = crcmod.mkCrcFun(
     0x104C11DB7, initCrc=0, rev=False, xorOut=0xFFFFFFFF
 )
 crc16_1212: Callable[[bytes], int] = crcmod.mkCrcFun(0x11021, initCrc=0, rev=False, xorOut=0)
+crc32.__doc__ = "CRC-32/BZIP2 of ``data``: the 1394 header and data CRC before padding."
+crc16_1212.__doc__ = "IEEE 1212 CRC-16 of ``data``: the configuration ROM's CRC."
 
 #: CRC-32/BZIP2 of ASCII "123456789", the catalogue check value.
 CHECK_VALUE = 0xFC891918

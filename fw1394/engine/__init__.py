@@ -17,6 +17,7 @@ from fw1394.engine.events import (
     UnexpectedResponse,
     WriteCompleted,
 )
+from fw1394.engine.loopback import Link
 from fw1394.engine.policy import IEEE1394_NODE, JHU_FIRMWARE, THESIS_FPGA, ResponderPolicy
 from fw1394.engine.requester import Requester
 from fw1394.engine.responder import Reply, Responder
@@ -27,6 +28,7 @@ __all__ = [
     "THESIS_FPGA",
     "Event",
     "FailureReason",
+    "Link",
     "LockCompleted",
     "ReadCompleted",
     "Reply",

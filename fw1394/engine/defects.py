@@ -15,6 +15,7 @@ from typing import Final
 from fw1394.engine import Reply, Responder, ResponderPolicy
 from fw1394.engine.policy import IEEE1394_NODE
 from fw1394.engine.space import AddressSpace, SpaceError
+from fw1394.errors import Error
 from fw1394.packets import (
     AsyncPacket,
     BlockReadRequest,
@@ -54,7 +55,7 @@ PACKET_DEFECTS: Final[dict[str, str]] = {
 }
 
 
-class PlantedCrash(RuntimeError):
+class PlantedCrash(Error, RuntimeError):
     """The crash of ``crash-on-empty-block-write``: a node process dies of it."""
 
 

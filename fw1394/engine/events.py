@@ -37,21 +37,27 @@ class TransactionEvent(Event):
 
 @dataclass(frozen=True, slots=True)
 class ReadCompleted(TransactionEvent):
+    """A read ended with data: the quadlet or block in ``data``."""
+
     data: bytes
 
 
 @dataclass(frozen=True, slots=True)
 class WriteCompleted(TransactionEvent):
-    pass
+    """A write ended with ``resp_complete`` (or ``ack_complete`` for a unified write)."""
 
 
 @dataclass(frozen=True, slots=True)
 class LockCompleted(TransactionEvent):
+    """A lock ended: ``old_value`` is what the address held before it."""
+
     old_value: bytes
 
 
 @dataclass(frozen=True, slots=True)
 class TransactionFailed(TransactionEvent):
+    """A transaction ended without success; ``reason`` says why."""
+
     reason: FailureReason
     #: The response code, for ``rcode_error``.
     rcode: int | None = None

@@ -11,11 +11,13 @@ from __future__ import annotations
 
 from typing import Protocol, runtime_checkable
 
+from fw1394.errors import TransactionError
+
 #: The FPGA boards count time in ticks of their 49.152 MHz clock.
 TICKS_PER_SECOND = 49_152_000
 
 
-class SpaceError(Exception):
+class SpaceError(TransactionError):
     """Base class of the errors an address space may raise."""
 
 
@@ -27,8 +29,12 @@ class DataError(SpaceError):
     """The request's length or data are not acceptable (resp_data_error)."""
 
 
-class TypeError1394(SpaceError):
+class RequestTypeError(SpaceError):
     """The request type is not supported at that offset (ack/resp_type_error)."""
+
+
+#: The former name of :class:`RequestTypeError`.
+TypeError1394 = RequestTypeError
 
 
 class BusyError(SpaceError):

@@ -8,4 +8,8 @@ measured), :mod:`~fw1394.experiments.bands`, :mod:`~fw1394.experiments.fit`,
 :mod:`~fw1394.experiments.results`, :mod:`~fw1394.experiments.report_text` and
 :mod:`~fw1394.experiments.figures` (output), :mod:`~fw1394.experiments.thesis` (the
 published numbers). ``docs/performance.md`` describes the method.
+
+Used through ``fw1394 bench``; no names of its own here.
 """
+
+__all__: list[str] = []

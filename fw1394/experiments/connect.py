@@ -14,6 +14,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 
+from fw1394.errors import BusUnreachable
 from fw1394.experiments.bench_targets import BusTarget, Eth1394Target, Target, bus_node_board
 from fw1394.experiments.private_bus import SETTLE_S, TIMING, TRANSACTION_TIMEOUT_S, PrivateBus
 from fw1394.jhu.client import EthUdpClient
@@ -32,7 +33,7 @@ VIRTUAL = "virtual"
 HIGHEST_PHYSICAL_ID = 62
 
 
-class TargetUnavailable(RuntimeError):
+class TargetUnavailable(BusUnreachable):
     """The target cannot be reached or is not what the specification says."""
 
 

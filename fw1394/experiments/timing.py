@@ -8,6 +8,7 @@ import time
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 
+from fw1394.errors import Error
 from fw1394.experiments.phase_progress import Progress
 
 #: Give up on a measurement when more than this share of its transactions fail.
@@ -24,11 +25,11 @@ PROGRESS_EVERY = 256
 SWITCH_WARMUP = 10
 
 
-class TargetError(RuntimeError):
+class TargetError(Error, RuntimeError):
     """A transaction that did not complete (no answer, bus reset, refused)."""
 
 
-class MeasurementError(RuntimeError):
+class MeasurementError(Error, RuntimeError):
     """Too many transactions of a measurement failed for its numbers to mean anything."""
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from fw1394.errors import UsageError
 from fw1394.packets import PacketError
 from fw1394.packets.asynchronous import decode_async, encode_async
 from fw1394.packets.hextext import HexTextError, hex_bytes
@@ -19,7 +20,7 @@ from fw1394.packets.hextext import HexTextError, hex_bytes
 LIMIT = 10_000
 
 
-class CorpusError(ValueError):
+class CorpusError(UsageError):
     """A corpus file that cannot be read (one line for the user)."""
 
 

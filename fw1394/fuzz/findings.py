@@ -14,6 +14,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from fw1394.errors import UsageError
 from fw1394.fuzz.trial import Entry
 
 FORMAT = "fw1394-fuzz-finding/1"
@@ -92,7 +93,7 @@ def file_name(index: int, finding: Finding) -> str:
     return f"{index:03d}-{slug.strip('-')[:80]}.json"
 
 
-class FindingsExist(Exception):
+class FindingsExist(UsageError):
     """A findings directory already holds findings and was not to be replaced."""
 
 

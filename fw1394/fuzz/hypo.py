@@ -20,6 +20,7 @@ from hypothesis import HealthCheck, Phase, given, seed
 from hypothesis import settings as hypothesis_settings
 from hypothesis import strategies as st
 
+from fw1394.errors import Error
 from fw1394.fuzz.campaign import replayer
 from fw1394.fuzz.findings import Finding
 from fw1394.fuzz.judge import Violation
@@ -37,7 +38,7 @@ MAX_CASES_PER_EXAMPLE = 8
 EXAMPLES_PER_RUN = 400
 
 
-class _Found(Exception):
+class _Found(Error):
     """Raised inside the property to make hypothesis shrink towards this violation."""
 
 

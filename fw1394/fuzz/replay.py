@@ -19,6 +19,8 @@ from fw1394.fuzz.target import Target
 
 @dataclass(frozen=True)
 class ReplayResult:
+    """One saved finding replayed: whether it reproduced, and what else showed."""
+
     path: Path
     finding: Finding
     target: str

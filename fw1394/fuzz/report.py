@@ -13,6 +13,8 @@ from fw1394.fuzz.settings import Settings
 
 @dataclass
 class Report:
+    """What a campaign did: cases run, time taken, why it stopped, the findings."""
+
     settings: Settings
     cases: int = 0
     elapsed: float = 0.0

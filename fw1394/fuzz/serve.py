@@ -22,6 +22,7 @@ import time
 
 from fw1394.engine import ResponderPolicy
 from fw1394.engine.defects import PACKET_DEFECTS, DefectiveResponder
+from fw1394.errors import UsageError
 from fw1394.fuzz.reference import board
 from fw1394.packets import WriteResponse
 from fw1394.packets.eth1394 import (
@@ -43,7 +44,7 @@ _NODE_PHY_MEMBER = 0x4E4F4445  # "NODE": the member ID this end puts in its fram
 _EXTRA = build_response(Eth1394Response(b"", ExtraBytes(no_forward_echo=True)))
 
 
-class ServeError(ValueError):
+class ServeError(UsageError):
     """An address this server will not use (one line for the user)."""
 
 

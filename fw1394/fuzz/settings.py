@@ -6,6 +6,7 @@ from dataclasses import asdict, dataclass, fields
 from typing import Any
 
 from fw1394.boards.registry import BOARDS
+from fw1394.errors import UsageError
 from fw1394.fuzz.contract import CONTRACTS
 from fw1394.packets.nodeid import node_id
 
@@ -25,7 +26,7 @@ def default_policy(kind: str | None) -> str:
     return policy if policy in CONTRACTS else FALLBACK_POLICY
 
 
-class SettingsError(ValueError):
+class SettingsError(UsageError):
     """Settings that cannot work together (one line for the user)."""
 
 

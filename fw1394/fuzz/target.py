@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from typing import NamedTuple, Protocol
 
 from fw1394.engine import Reply
+from fw1394.errors import BusUnreachable, Error
 from fw1394.packets import AsyncPacket
 
 
@@ -61,11 +62,11 @@ class Visibility:
     max_response: int = 1 << 20
 
 
-class TargetCrash(Exception):
+class TargetCrash(Error):
     """The target raised or its process went away; the message says how."""
 
 
-class TargetGone(Exception):
+class TargetGone(BusUnreachable):
     """The target stopped answering for good; the campaign cannot go on."""
 
 

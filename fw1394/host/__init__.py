@@ -9,6 +9,7 @@
 :class:`PositionLoop` is a small PD servo on top of :class:`RobotIO`.
 """
 
+from fw1394.host.adapter_port import AdapterPort
 from fw1394.host.board import Board, BoardError
 from fw1394.host.control import PdGains, PositionLoop, Trajectory
 from fw1394.host.multiboard import MultiBoard
@@ -16,6 +17,7 @@ from fw1394.host.port import LocalPort, ManualClock, Port, UnknownNodeError
 from fw1394.host.robot import RobotIO
 
 __all__ = [
+    "AdapterPort",
     "Board",
     "BoardError",
     "LocalPort",

@@ -6,6 +6,13 @@ is on a PC's link: opening and closing it causes no bus reset. Blocking
 calls (:meth:`AdapterPort.read_quadlet` ...) make it a Port for
 :class:`~fw1394.host.board.Board`; :meth:`AdapterPort.start` and
 :meth:`AdapterPort.wait` keep several transactions outstanding at once.
+
+Every request is pinned to a bus generation (``docs/host-adapter.md``): the
+``generation`` given, or by default the port's :attr:`AdapterPort.generation`,
+the one its latest reply reported. One addressed in a generation that has
+ended raises :class:`StaleGenerationError` (nothing was sent); the port has
+learnt the new generation by then, and the caller chooses its physical IDs
+again (:class:`fw1394.host.addressing.BoardPort` does that by board ID).
 """
 
 from __future__ import annotations
@@ -16,22 +23,27 @@ from pathlib import Path
 from typing import Self
 
 from fw1394.engine import FailureReason, TransactionFailed
+from fw1394.errors import BusUnreachable
 from fw1394.transport.adapter_protocol import (
+    CHOSEN,
     NONE,
+    STALE,
+    VERSION,
     FrameBuffer,
     Op,
     Reply,
     Request,
     Status,
+    hello,
     parse_reply,
 )
-from fw1394.transport.bus_host import TransactionError
+from fw1394.transport.bus_host import StaleGenerationError, TransactionError
 from fw1394.transport.config import DEFAULT_BUS
 from fw1394.transport.runtime import adapter_socket, bus_dir
 from fw1394.transport.wire import NO_PHY, MemberInfo, parse_table
 
 
-class AdapterError(RuntimeError):
+class AdapterError(BusUnreachable):
     """The adapter cannot be reached, or would not run a request."""
 
 
@@ -77,6 +89,22 @@ class AdapterPort:
         #: The bus generation and the adapter's physical ID, as of the last reply.
         self.generation = 0
         self.phy_id: int | None = None
+        #: The protocol version agreed with the adapter.
+        self.version = self._greet()
+
+    def _greet(self) -> int:
+        number = next(self._numbers)
+        try:
+            self._sock.sendall(hello(number).pack())
+            reply = self.wait(number)
+        except AdapterError as error:
+            self._sock.close()
+            raise AdapterError(
+                f"the adapter of bus {self.name!r} does not speak protocol version {VERSION}: "
+                f"{error}"
+            ) from None
+        version: int = CHOSEN.parse(reply.data).version
+        return version
 
     def __enter__(self) -> Self:
         return self
@@ -88,10 +116,27 @@ class AdapterPort:
         self._sock.close()
 
     # -- requests, outstanding at once --------------------------------------------------
-    def start(self, op: Op, node: int = 0, offset: int = 0, **fields: object) -> int:
-        """Send a request; its number for :meth:`wait`."""
+    def start(
+        self,
+        op: Op,
+        node: int = 0,
+        offset: int = 0,
+        *,
+        generation: int | None = None,
+        **fields: object,
+    ) -> int:
+        """Send a request addressed in ``generation`` (default: :attr:`generation`);
+        its number for :meth:`wait`."""
         number = next(self._numbers) & 0xFFFFFFFF
-        request = Request(number, op, node, offset, **fields)  # type: ignore[arg-type]
+        pinned = self.generation if generation is None else generation
+        request = Request(
+            number,
+            op,
+            node,
+            offset,
+            generation=pinned,
+            **fields,  # type: ignore[arg-type]
+        )
         try:
             self._sock.sendall(request.pack())
         except OSError as error:
@@ -122,48 +167,88 @@ class AdapterPort:
         return reply
 
     def result(self, number: int) -> bytes:
-        """The data of request ``number``'s reply; :class:`TransactionError` if it failed."""
+        """The data of request ``number``'s reply; :class:`TransactionError` if it failed
+        (:class:`StaleGenerationError` if it was addressed in a generation that ended)."""
         reply = self.wait(number)
         if reply.status is Status.failed:
             raise TransactionError(failure_of(reply))
+        if reply.status is Status.stale:
+            (addressed,) = STALE.unpack(reply.data[: STALE.size]) if reply.data else (0,)
+            raise StaleGenerationError(addressed, reply.generation)
         return reply.data
 
     # -- the bus ------------------------------------------------------------------------
+    def table(self) -> tuple[int, tuple[MemberInfo, ...]]:
+        """The bus generation and its members in physical-ID order, as of one moment."""
+        reply = self.wait(self.start(Op.info))
+        _, members = parse_table(reply.data)
+        return reply.generation, members
+
     def members(self) -> tuple[MemberInfo, ...]:
         """Every member of the bus in physical-ID order, the adapter among them."""
-        _, members = parse_table(self.wait(self.start(Op.info)).data)
-        return members
+        return self.table()[1]
 
     def nodes(self) -> list[tuple[int, MemberInfo]]:
         """(physical ID, member) of every member but the adapter."""
         members = self.members()
         return [(phy, m) for phy, m in enumerate(members) if phy != self.phy_id]
 
-    def send_packet(self, destination: int, packet: bytes, wait: float = 0.5) -> Reply:
-        """Put ``packet`` on the bus as it is; the ack (``ack``) and response (``data``)."""
-        return self.wait(self.start(Op.send, destination, data=packet, wait=wait))
+    def send_packet(
+        self, destination: int, packet: bytes, wait: float = 0.5, *, generation: int | None = None
+    ) -> Reply:
+        """Put ``packet`` on the bus as it is; the ack (``ack``) and response (``data``).
+
+        Raises :class:`StaleGenerationError` if ``generation`` (default: the port's)
+        has ended: the packet was not sent."""
+        reply = self.wait(
+            self.start(Op.send, destination, data=packet, wait=wait, generation=generation)
+        )
+        if reply.status is Status.stale:
+            (addressed,) = STALE.unpack(reply.data[: STALE.size]) if reply.data else (0,)
+            raise StaleGenerationError(addressed, reply.generation)
+        return reply
 
     # -- the Port calls -----------------------------------------------------------------
-    def read_quadlet(self, node: int, offset: int) -> int:
-        data = self.result(self.start(Op.read, node, offset, length=4, quadlet=True))
-        return int.from_bytes(data, "big")
+    def read_quadlet(self, node: int, offset: int, *, generation: int | None = None) -> int:
+        number = self.start(Op.read, node, offset, length=4, quadlet=True, generation=generation)
+        return int.from_bytes(self.result(number), "big")
 
-    def read_block(self, node: int, offset: int, length: int) -> bytes:
-        return self.result(self.start(Op.read, node, offset, length=length))
+    def read_block(
+        self, node: int, offset: int, length: int, *, generation: int | None = None
+    ) -> bytes:
+        return self.result(self.start(Op.read, node, offset, length=length, generation=generation))
 
-    def write_quadlet(self, node: int, offset: int, value: int) -> None:
+    def write_quadlet(
+        self, node: int, offset: int, value: int, *, generation: int | None = None
+    ) -> None:
         data = value.to_bytes(4, "big")
-        self.result(self.start(Op.write, node, offset, quadlet=True, data=data))
+        number = self.start(Op.write, node, offset, quadlet=True, data=data, generation=generation)
+        self.result(number)
 
-    def write_block(self, node: int, offset: int, data: bytes) -> None:
-        self.result(self.start(Op.write, node, offset, data=data))
+    def write_block(
+        self, node: int, offset: int, data: bytes, *, generation: int | None = None
+    ) -> None:
+        self.result(self.start(Op.write, node, offset, data=data, generation=generation))
 
     def lock(
-        self, node: int, offset: int, extended_tcode: int, argument: bytes, data: bytes
+        self,
+        node: int,
+        offset: int,
+        extended_tcode: int,
+        argument: bytes,
+        data: bytes,
+        *,
+        generation: int | None = None,
     ) -> bytes:
         """The old value at ``offset`` after a lock of kind ``extended_tcode``."""
         number = self.start(
-            Op.lock, node, offset, extended_tcode=extended_tcode, argument=argument, data=data
+            Op.lock,
+            node,
+            offset,
+            extended_tcode=extended_tcode,
+            argument=argument,
+            data=data,
+            generation=generation,
         )
         return self.result(number)
 

@@ -43,6 +43,7 @@ from fw1394.boards.snake2010.spec import (
     pot_frame,
     status_write,
 )
+from fw1394.errors import Error
 from fw1394.host.port import Port
 from fw1394.host.robot import RobotIO
 from fw1394.host.units import (
@@ -58,7 +59,7 @@ from fw1394.host.units import (
 _STATUS = REGISTER_MAP.offset("STATUS")
 
 
-class BoardError(RuntimeError):
+class BoardError(Error, RuntimeError):
     """The board answered in a way the library cannot use."""
 
 

@@ -12,6 +12,7 @@ from collections.abc import Callable, Mapping
 from typing import Protocol
 
 from fw1394.engine.space import TICKS_PER_SECOND, AddressSpace
+from fw1394.errors import BusUnreachable
 
 
 class Port(Protocol):
@@ -34,7 +35,7 @@ class Port(Protocol):
         ...
 
 
-class UnknownNodeError(LookupError):
+class UnknownNodeError(BusUnreachable, LookupError):
     """No address space is attached under that node number."""
 
 

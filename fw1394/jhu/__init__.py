@@ -12,3 +12,34 @@
 
 ``docs/jhu-eth1394.md`` is the user guide.
 """
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from fw1394._lazy import exports
+
+# Public name -> the module that defines it, imported on first use.
+_HOMES = {
+    "Command": "fw1394.jhu.rt_loop",
+    "EthUdpClient": "fw1394.jhu.client",
+    "RealTimeLoop": "fw1394.jhu.rt_loop",
+    "ScanResult": "fw1394.jhu.scan",
+    "start_scan": "fw1394.jhu.scan:start",
+}
+
+__all__ = [
+    "Command",
+    "EthUdpClient",
+    "RealTimeLoop",
+    "ScanResult",
+    "start_scan",
+]
+
+__getattr__, __dir__ = exports(__name__, globals(), _HOMES)
+
+if TYPE_CHECKING:
+    from fw1394.jhu.client import EthUdpClient
+    from fw1394.jhu.rt_loop import Command, RealTimeLoop
+    from fw1394.jhu.scan import ScanResult
+    from fw1394.jhu.scan import start as start_scan

@@ -28,7 +28,8 @@ from fw1394.boards.qla1.regs import (
     BoardRegister,
 )
 from fw1394.jhu.client import HOST_SOURCE_ID, LOCAL_BUS_IDS, MAX_DATAGRAM, EthUdpClient
-from fw1394.jhu.scan import BOARD_ID_MASK, Protocol, ScanResult
+from fw1394.jhu.hub_parse import HubBoard, hub_read_quadlets, split_hub
+from fw1394.jhu.scan import Protocol, ScanResult
 from fw1394.packets import QuadletReadRequest
 from fw1394.packets.eth1394 import BROADCAST_NODE
 from fw1394.packets.eth1394_fast import request_datagram
@@ -81,7 +82,12 @@ class RealTimeLoop:
         self.mask = sum(1 << board.board_id for board in self.boards)
         # Fixed for the run: worked out once, not every cycle.
         self._read_quadlets = [rt.rt_read_quadlets(board.firmware) for board in self.boards]
-        self._hub_size = 4 * (sum(count + 1 for count in self._read_quadlets) + 1)
+        self._hub_boards = [HubBoard(board.board_id, board.firmware) for board in self.boards]
+        # The hub's layout follows the firmware: raises MixedFirmwareError for a broadcast
+        # read over boards of different families, which the host refuses too.
+        self._hub_size = (
+            4 * hub_read_quadlets(self._hub_boards) if self.protocol is Protocol.BC_QRW else 0
+        )
         self._idle_words = [
             write_block(board.board_id, board.firmware, Command()) for board in self.boards
         ]
@@ -118,20 +124,9 @@ class RealTimeLoop:
         return self._split_hub(data)
 
     def _split_hub(self, data: bytes | None) -> dict[int, list[int] | None]:
-        blocks: dict[int, list[int] | None] = {}
-        words = quadlets(data) if data is not None else []
-        position = 0
-        for board, count in zip(self.boards, self._read_quadlets, strict=True):
-            chunk = words[position + 1 : position + 1 + count]
-            header = words[position] if position < len(words) else 0
-            position += count + 1
-            good = (
-                len(chunk) == count
-                and header >> 16 & 0xFF == self.sequence & 0xFF
-                and (chunk[rt.STATUS] & BOARD_ID_MASK) >> 24 == board.board_id
-            )
-            blocks[board.board_id] = chunk if good else None
-        return blocks
+        if data is None:
+            return dict.fromkeys((board.board_id for board in self.boards), None)
+        return split_hub(quadlets(data), self._hub_boards, self.sequence)
 
     # -- writes -------------------------------------------------------------------------
     def write_all(self, commands: dict[int, Command] | None = None) -> bool:

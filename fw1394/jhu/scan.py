@@ -49,6 +49,8 @@ class ScannedBoard:
 
 @dataclass
 class ScanResult:
+    """What the host's start-up scan found: the boards, the hub, the protocol to use."""
+
     boards: list[ScannedBoard] = field(default_factory=list)
     hub_board: int = 0
     bridge: bool = False

@@ -15,6 +15,7 @@ from typing import Any
 
 from fw1394.boards.registry import BOARDS, check_defects
 from fw1394.engine.policy import POLICIES
+from fw1394.errors import UsageError
 from fw1394.transport.config import DEFAULT_BUS, BusConfig, BusNameError
 from fw1394.transport.faults import FaultConfig
 from fw1394.transport.membership import Timing
@@ -30,7 +31,7 @@ DEFAULT_FIRMWARE = 8
 RTL_PREFIX = "rtl:"
 
 
-class NodeDescriptionError(ValueError):
+class NodeDescriptionError(UsageError):
     """A node description no node could start with (one line for the user)."""
 
 

@@ -7,6 +7,7 @@ from typing import Any
 
 from fw1394.boards.registry import BOARDS, board_defects, make_board
 from fw1394.engine.policy import POLICIES
+from fw1394.errors import Error
 from fw1394.node.description import RTL_PREFIX, NodeDescription
 from fw1394.node.process import BusRefusedError, NodeOptions, run_node
 from fw1394.transport.membership import BusReset
@@ -16,7 +17,7 @@ from fw1394.transport.procs import die_with_parent
 DEFAULT_MEMORY_SIZE = NodeDescription().memory_size
 
 
-class NodeStartError(RuntimeError):
+class NodeStartError(Error, RuntimeError):
     """The node could not start or was turned away (one line for the user)."""
 
 

@@ -6,6 +6,7 @@
 4
 """
 
+from fw1394.packets.accessors import SOURCE_ID, TCODE, TLABEL, layout_reader
 from fw1394.packets.ack import Ack
 from fw1394.packets.asynchronous import (
     ASYNC_CLASSES,
@@ -40,6 +41,7 @@ from fw1394.packets.enums import (
 )
 from fw1394.packets.errors import PacketError
 from fw1394.packets.layouts import LAYOUTS, Layout
+from fw1394.packets.nodeid import phy_of
 from fw1394.packets.phy import (
     PHY_CLASSES,
     ExtendedSelfIdPacket,
@@ -61,6 +63,9 @@ __all__ = [
     "ASYNC_CLASSES",
     "LAYOUTS",
     "PHY_CLASSES",
+    "SOURCE_ID",
+    "TCODE",
+    "TLABEL",
     "Ack",
     "AckCode",
     "AsyncPacket",
@@ -103,8 +108,10 @@ __all__ = [
     "decode",
     "encode",
     "field_rows",
+    "layout_reader",
     "looks_like_phy",
     "name_of",
+    "phy_of",
     "self_id_port_status",
     "summary",
     "to_json",

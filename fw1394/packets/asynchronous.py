@@ -147,11 +147,15 @@ class RoutedPacket(AsyncPacket):
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class Request(RoutedPacket):
+    """A request: ``offset`` is the 48-bit address it reads, writes or locks."""
+
     offset: int = 0
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class Response(RoutedPacket):
+    """A response: ``rcode`` says how the request ended (``RCode``)."""
+
     rcode: int = RCode.resp_complete
     #: Bits the standard reserves (quadlet 1 bits 11..0 and quadlet 2); normally zero.
     reserved: int = 0
@@ -164,12 +168,16 @@ def _fill_length(packet: Any) -> None:
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class QuadletWriteRequest(Request):
+    """Write request for one quadlet (tcode 0): ``quadlet_data`` goes to ``offset``."""
+
     LAYOUT = LAYOUTS[TCode.write_quadlet_request]
     quadlet_data: int = 0
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class BlockWriteRequest(Request):
+    """Write request for a block (tcode 1): ``data`` goes to ``offset``."""
+
     LAYOUT = LAYOUTS[TCode.write_block_request]
     #: Negative means "the length of ``data``".
     data_length: int = -1
@@ -183,16 +191,22 @@ class BlockWriteRequest(Request):
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class WriteResponse(Response):
+    """Response to a write request (tcode 2): only the rcode."""
+
     LAYOUT = LAYOUTS[TCode.write_response]
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class QuadletReadRequest(Request):
+    """Read request for one quadlet (tcode 4) at ``offset``."""
+
     LAYOUT = LAYOUTS[TCode.read_quadlet_request]
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class BlockReadRequest(Request):
+    """Read request for ``data_length`` bytes (tcode 5) at ``offset``."""
+
     LAYOUT = LAYOUTS[TCode.read_block_request]
     data_length: int = 4
     extended_tcode: int = 0
@@ -200,12 +214,16 @@ class BlockReadRequest(Request):
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class QuadletReadResponse(Response):
+    """Response to a quadlet read (tcode 6): the quadlet is ``quadlet_data``."""
+
     LAYOUT = LAYOUTS[TCode.read_quadlet_response]
     quadlet_data: int = 0
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class BlockReadResponse(Response):
+    """Response to a block read (tcode 7): the bytes read are ``data``."""
+
     LAYOUT = LAYOUTS[TCode.read_block_response]
     data_length: int = -1
     extended_tcode: int = 0

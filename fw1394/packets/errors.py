@@ -1,17 +1,7 @@
-"""The one error type the codec raises."""
+"""The one error type the codec raises: :class:`fw1394.errors.PacketError`, named here too."""
 
 from __future__ import annotations
 
+from fw1394.errors import PacketError
 
-class PacketError(ValueError):
-    """A packet could not be decoded or encoded.
-
-    ``field`` names the field at fault (``"header_crc"``, ``"tcode"``,
-    ``"length"``, ...) and ``problem`` says what is wrong with it; ``str()``
-    gives both in one line.
-    """
-
-    def __init__(self, field: str, problem: str) -> None:
-        super().__init__(f"{field}: {problem}")
-        self.field = field
-        self.problem = problem
+__all__ = ["PacketError"]

@@ -33,9 +33,11 @@ from construct import (
     this,
 )
 
+from fw1394.errors import PacketError
 from fw1394.packets.asynchronous import tcode_of
 from fw1394.packets.enums import TCode
 from fw1394.packets.fast import FIELD_NAMES, decode_header
+from fw1394.packets.fields import FieldRangeError
 from fw1394.packets.layouts import LAYOUTS
 from fw1394.packets.nodeid import BROADCAST_PHY
 
@@ -186,13 +188,8 @@ BLOCK_PACKET_OVERHEAD = _wire_size(TCode.read_block_response)
 # -- errors -----------------------------------------------------------------------------
 
 
-class Eth1394Error(ValueError):
+class Eth1394Error(PacketError):
     """A datagram or a field of one does not fit the framing."""
-
-    def __init__(self, field: str, problem: str) -> None:
-        super().__init__(f"{field}: {problem}")
-        self.field = field
-        self.problem = problem
 
 
 class DatagramTooShortError(Eth1394Error):
@@ -201,10 +198,6 @@ class DatagramTooShortError(Eth1394Error):
 
 class ResponseSizeError(Eth1394Error):
     """A response shorter than the size the host waits for."""
-
-
-class FieldRangeError(Eth1394Error):
-    """A field value that does not fit its bits."""
 
 
 def _check_range(field: str, value: int, bits: int) -> None:
@@ -374,7 +367,7 @@ def parse_response(payload: bytes, expected_packet_size: int | None = None) -> E
         )
     if expected_packet_size is not None and len(payload) != EXTRA_SIZE:
         if expected_packet_size < 0:
-            raise FieldRangeError("expected_packet_size", f"{expected_packet_size} is negative")
+            raise Eth1394Error("expected_packet_size", f"{expected_packet_size} is negative")
         wanted = expected_packet_size + EXTRA_SIZE
         if len(payload) < wanted:
             raise ResponseSizeError("datagram", f"{len(payload)} bytes, host waits for {wanted}")

@@ -24,6 +24,8 @@ from typing import Any
 import construct
 from construct import Container, StreamError, stream_read, stream_write
 
+from fw1394.errors import PacketError
+
 
 @dataclass(frozen=True)
 class BitField:
@@ -206,13 +208,8 @@ def out_of_range(value: int, width: int) -> str:
     return f"{value} ({value:#x}) does not fit in {width} bits (0..{(1 << width) - 1:#x})"
 
 
-class FieldRangeError(construct.MappingError):  # type: ignore[misc]
-    """A value does not fit the bits its field has."""
-
-    def __init__(self, field: str, problem: str) -> None:
-        super().__init__(f"{field}: {problem}")
-        self.field = field
-        self.problem = problem
+class FieldRangeError(PacketError):
+    """A value does not fit the bits its field has (``field`` names it)."""
 
 
 def _place(quadlets: Sequence[Sequence[FieldSpec]]) -> Iterator[BitField]:

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from fw1394.errors import UsageError
 
-class HexTextError(ValueError):
+
+class HexTextError(UsageError):
     """Text that is not hex bytes (the message says where)."""
 
 

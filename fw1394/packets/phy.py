@@ -210,6 +210,8 @@ class PhyConfigPacket(PhyPacket):
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class LinkOnPacket(PhyPacket):
+    """Link-on PHY packet: wakes the link of node ``phy_id``."""
+
     LAYOUT = Quadlets(LINK_ON)
     NAME = "link_on"
     SELECTOR = {"identifier": 1}
@@ -266,6 +268,8 @@ class RemoteReplyPacket(PhyPacket):
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class RemoteCommandPacket(PhyPacket):
+    """Remote command PHY packet: a command to one port of a remote PHY."""
+
     LAYOUT = Quadlets(REMOTE_COMMAND)
     NAME = "remote_command"
     SELECTOR = {"identifier": 0, "force_root": 0, "gap_count_optimization": 0, "type": 0x8}
@@ -276,6 +280,8 @@ class RemoteCommandPacket(PhyPacket):
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class RemoteConfirmationPacket(PhyPacket):
+    """Remote confirmation PHY packet: a remote PHY's answer to a command."""
+
     LAYOUT = Quadlets(REMOTE_CONFIRMATION)
     NAME = "remote_confirmation"
     SELECTOR = {"identifier": 0, "force_root": 0, "gap_count_optimization": 0, "type": 0xA}

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from fw1394.boards.registry import BOARDS
+from fw1394.errors import UsageError
 
 STYLES = ("inout", "split-oe", "split-flag")
 ORDERS = ("msb", "lsb")
@@ -28,7 +29,7 @@ HDL_DIR = Path(__file__).parent / "hdl"
 PORTMAP_DIR = Path(__file__).parent / "portmaps"
 
 
-class PortMapError(ValueError):
+class PortMapError(UsageError):
     """A port map that cannot work (one line for the user)."""
 
 

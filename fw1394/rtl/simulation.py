@@ -20,13 +20,14 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from fw1394.errors import Error
 from fw1394.rtl.portmap import HDL_DIR, PortMap, harness_verilog
 
 #: Seconds the simulator may take to compile, start and reset the design.
 START_TIMEOUT = 20.0
 
 
-class SimulationError(RuntimeError):
+class SimulationError(Error, RuntimeError):
     """The simulator is missing, failed to build, died or stopped answering."""
 
 

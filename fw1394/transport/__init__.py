@@ -17,3 +17,40 @@
 
 ``docs/virtual-bus.md`` describes the design, the wire format and the numbers.
 """
+
+from __future__ import annotations
+
+from typing import Any
+
+from fw1394.transport.adapter_protocol import Op
+from fw1394.transport.bus_host import BusError, BusHost, TransactionTimeout
+from fw1394.transport.bus_port import BusPort
+from fw1394.transport.config import BusConfig, BusNameError
+from fw1394.transport.eth1394_addresses import Endpoint
+from fw1394.transport.launch import AlreadyUpError, LaunchedBus, LaunchError
+
+__all__ = [
+    "AlreadyUpError",
+    "BusConfig",
+    "BusError",
+    "BusHost",
+    "BusNameError",
+    "BusPort",
+    "Endpoint",
+    "LaunchError",
+    "LaunchedBus",
+    "Op",
+    "TransactionTimeout",
+    "open_bus",
+]
+
+
+def open_bus(name: str = "default", **options: Any) -> BusPort:
+    """Join bus ``name`` as a host: a :class:`BusPort`, closed by ``with`` or ``close()``.
+
+    ``options`` are :class:`~fw1394.transport.bus_host.BusHost`'s (``ack_timeout``,
+    ``split_timeout``, ``join_timeout``, ...). The bus must be running (``fw1394 bus
+    up NAME``, or a :class:`LaunchedBus`); reads and writes raise
+    :class:`fw1394.TransactionError` (:class:`fw1394.Timeout` when nothing answered).
+    """
+    return BusPort(BusConfig(name), **options)

@@ -15,6 +15,11 @@ transaction ends. Clients come and go without the bus noticing.
 ``send`` puts a client's packet on the bus as it is, malformed or not (the
 adapter's frame header names the adapter as sender, so answers come back to
 it), and reports the ack and the response that came back for it.
+
+A connection starts with ``hello`` (the protocol version), and every request
+runs only in the bus generation it was addressed in: one from an earlier
+generation is answered ``stale`` and never sent, since its physical ID may
+belong to another node now (``docs/host-adapter.md``).
 """
 
 from __future__ import annotations
@@ -38,16 +43,20 @@ from fw1394.packets.ack import ack_code
 from fw1394.packets.enums import AckCode
 from fw1394.packets.tcodes import RESPONSE_TCODES
 from fw1394.transport.adapter_protocol import (
+    CHOSEN,
     NONE,
+    STALE,
+    VERSIONS,
     FrameBuffer,
     Op,
     ProtocolError,
     Reply,
     Request,
     Status,
+    choose_version,
     parse_request,
 )
-from fw1394.transport.bus_host import BusError, BusHost
+from fw1394.transport.bus_host import BusError, BusHost, StaleGenerationError
 from fw1394.transport.config import BusConfig
 from fw1394.transport.link import ACK, ACK_BYTES, ACK_SIZE, ASYNC_PACKET, RequesterLink
 from fw1394.transport.membership import Timing
@@ -92,6 +101,8 @@ class RawSend:
 class Client:
     sock: socket.socket
     frames: FrameBuffer = field(default_factory=FrameBuffer)
+    #: The protocol version agreed in ``hello``; None before it.
+    version: int | None = None
 
 
 class AdapterLink(RequesterLink):
@@ -255,6 +266,10 @@ class Adapter:
             bodies = client.frames.feed(data)
             for body in bodies:
                 request = parse_request(body)
+                if client.version is None:
+                    if not self._greet(client, request):
+                        return
+                    continue
                 try:
                     self._handle(client, request)
                 except Exception as error:  # one client's request never ends the bus's adapter
@@ -284,6 +299,23 @@ class Adapter:
         except OSError:
             self._drop(client)
 
+    def _greet(self, client: Client, request: Request) -> bool:
+        """The first request of a connection: ``hello``; False if the client was dropped."""
+        spoken = ", ".join(str(v) for v in sorted(VERSIONS))
+        version = choose_version(request) if request.op is Op.hello else None
+        if version is None:
+            if request.op is Op.hello:
+                detail = f"no protocol version in common: this adapter speaks {spoken}"
+            else:
+                detail = f"the first request must be hello (this adapter speaks version {spoken})"
+            self._reply(client, Reply(request.request, Status.refused, detail=detail))
+            self._drop(client)
+            return False
+        client.version = version
+        chosen = CHOSEN.build({"version": version})
+        self._reply(client, Reply(request.request, Status.ok, data=chosen))
+        return True
+
     # -- requests ---------------------------------------------------------------------
     def _handle(self, client: Client, request: Request) -> None:
         host = self.host
@@ -293,10 +325,22 @@ class Adapter:
                 table = pack_table(host.members)
                 self._reply(client, Reply(request.request, Status.ok, data=table))
                 return
-            if request.op is Op.send:
-                self._send(client, request)
-                return
-            tid = self._start(request)
+            if request.op is Op.hello:
+                raise ValueError("hello comes once, first")
+            # Pinned: a request whose generation has ended is never sent (its
+            # physical ID may be another node's now).
+            with host.addressed_in(request.generation):
+                if request.op is Op.send:
+                    self._send(client, request)
+                    return
+                tid = self._start(request)
+        except StaleGenerationError as error:
+            addressed = STALE.pack(request.generation)
+            stale = Reply(
+                request.request, Status.stale, detail=error.failure.detail, data=addressed
+            )
+            self._reply(client, stale)
+            return
         except (ValueError, BusError) as error:
             self._reply(client, Reply(request.request, Status.refused, detail=str(error)))
             return

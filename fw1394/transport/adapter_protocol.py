@@ -1,17 +1,18 @@
-"""What programs and a bus's host adapter say over its Unix socket.
+"""What programs and a bus's host adapter say over its Unix socket (version 2).
 
-Every message is one frame: a big-endian u32 length, then a :data:`REQUEST`
-(client to adapter) or a :data:`REPLY` (adapter to client). A client may
-have many requests outstanding; each carries a number of the client's
-choosing that its reply repeats, and replies come in the order the
-transactions end, not the order they were asked.
+``docs/host-adapter.md`` is the interface's reference: every field, byte
+layouts, version negotiation and errors. In short: every message is one
+frame, a big-endian u32 length and then a :data:`REQUEST` (client to
+adapter) or a :data:`REPLY` (adapter to client). A connection starts with
+``hello``, which agrees on a protocol version. A client may have many
+requests outstanding; each carries a number of the client's choosing that
+its reply repeats, and replies come in the order the transactions end.
 
-``info`` asks for the adapter's view of the bus: the reply's ``data`` is the
-member table (:func:`fw1394.transport.wire.pack_table`), the adapter's own
-physical ID is ``phy``. ``send`` puts the bytes of ``data`` on the bus as one
-packet to physical ID ``node`` and reports what came back within ``wait``
-seconds: the ack code (``ack``, -1 for none) and the response packet's
-bytes (``data``, empty for none).
+Every request that names a node carries the bus generation its physical ID
+was chosen in. Physical IDs are renumbered at every bus reset, so the
+adapter runs a request only in that generation; one addressed in an earlier
+generation is answered :attr:`Status.stale` and never sent (Linux's
+firewire-cdev and libraw1394 do the same: ``EAGAIN``).
 """
 
 from __future__ import annotations
@@ -33,20 +34,34 @@ from construct import (
     Struct,
 )
 
+from fw1394.errors import PacketError
+
 #: Length prefix of every frame.
 LENGTH = struct.Struct(">I")
 #: No message is longer: the longest block plus its headers, with room to spare.
 MAX_MESSAGE = 1 << 17
 #: "No ack" and "no rcode" in a reply.
 NONE = -1
+#: The protocol version this module speaks, and every version an adapter accepts.
+VERSION = 2
+VERSIONS = frozenset({VERSION})
+#: ``hello``'s data: the lowest and highest version the client speaks; the reply's
+#: data: the version chosen (both big-endian u16).
+HELLO = Struct("lowest" / Int16ub, "highest" / Int16ub)
+CHOSEN = Struct("version" / Int16ub)
+#: A ``stale`` reply's data: the generation the request was addressed in (big-endian u32).
+STALE = struct.Struct(">I")
 
 
 class Op(IntEnum):
+    """The operations a bus adapter request asks for."""
+
     info = 0
     read = 1
     write = 2
     lock = 3
     send = 4
+    hello = 5
 
 
 class Status(IntEnum):
@@ -55,6 +70,9 @@ class Status(IntEnum):
     failed = 1
     #: The adapter could not run it (bad request, not on the bus): ``detail`` says why.
     refused = 2
+    #: The request was addressed in a generation that has ended (the reply's
+    #: ``generation`` is the current one): it was not sent.
+    stale = 3
 
 
 REQUEST = Struct(
@@ -62,6 +80,7 @@ REQUEST = Struct(
     "op" / Int8ub,  # Op
     "node" / Int8ub,  # physical ID (63: broadcast)
     "extended_tcode" / Int16ub,  # lock: which lock
+    "generation" / Int32ub,  # the bus generation ``node`` was chosen in
     "offset" / Int64ub,  # 48-bit address offset
     "length" / Int32ub,  # block read: bytes
     "quadlet" / Int8ub,  # read/write: 1 for a quadlet transaction (write: the 4 data bytes)
@@ -96,6 +115,7 @@ class Request:
     wait: float = 0.0
     argument: bytes = b""
     data: bytes = b""
+    generation: int = 0
 
     def pack(self) -> bytes:
         body: bytes = REQUEST.build(
@@ -104,6 +124,7 @@ class Request:
                 "op": int(self.op),
                 "node": self.node,
                 "extended_tcode": self.extended_tcode,
+                "generation": self.generation & 0xFFFFFFFF,
                 "offset": self.offset,
                 "length": self.length,
                 "quadlet": int(self.quadlet),
@@ -146,7 +167,7 @@ class Reply:
         return LENGTH.pack(len(body)) + body
 
 
-class ProtocolError(ValueError):
+class ProtocolError(PacketError):
     """Bytes that are not a message of this protocol."""
 
 
@@ -167,7 +188,23 @@ def parse_request(body: bytes) -> Request:
         parsed.wait,
         parsed.argument,
         parsed.data,
+        parsed.generation,
     )
+
+
+def hello(request: int, lowest: int = VERSION, highest: int = VERSION) -> Request:
+    """The first request of a connection: the versions the client speaks."""
+    return Request(request, Op.hello, data=HELLO.build({"lowest": lowest, "highest": highest}))
+
+
+def choose_version(request: Request) -> int | None:
+    """The version an adapter speaks with the sender of ``hello``; None: none in common."""
+    try:
+        offered = HELLO.parse(request.data)
+    except Exception:  # construct raises many kinds; a short hello offers nothing
+        return None
+    common = [v for v in VERSIONS if offered.lowest <= v <= offered.highest]
+    return max(common, default=None)
 
 
 def parse_reply(body: bytes) -> Reply:

@@ -17,10 +17,14 @@ never meets a stale generation.
 from __future__ import annotations
 
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Self
 
+from fw1394 import errors
 from fw1394.engine import Event, FailureReason, Requester, TransactionEvent, TransactionFailed
-from fw1394.packets import BlockReadResponse, RCode, name_of
+from fw1394.errors import BusUnreachable
+from fw1394.packets import AckCode, BlockReadResponse, RCode, name_of
 from fw1394.packets.fast import encode_packet
 from fw1394.packets.nodeid import BROADCAST_ID, resolve
 from fw1394.packets.nodeid import LOCAL_BUS as LOCAL_BUS  # the bus hosts address, re-exported
@@ -44,12 +48,26 @@ MAX_BLOCK_READ = (MAX_UDP_PAYLOAD - HEADER_SIZE - ACK_SIZE - _BLOCK_OVERHEAD) & 
 MAX_BLOCK_WRITE = (MAX_UDP_PAYLOAD - HEADER_SIZE - _BLOCK_OVERHEAD) & ~3
 
 
-class BusError(RuntimeError):
+class BusError(BusUnreachable):
     """The host could not get onto the bus (no answer, or the bus is full)."""
 
 
-class TransactionError(RuntimeError):
-    """A transaction failed; ``reason`` is the engine's name for why."""
+class EngineTransactionError(errors.TransactionError, RuntimeError):
+    """A :class:`fw1394.TransactionError` made of the engine's ``TransactionFailed`` event.
+
+    ``reason`` is the engine's name for why the transaction failed.
+
+    ``ack`` holds the ack code of an ``ack_*_error`` failure and ``rcode`` the
+    response code of an ``rcode_error``. Like ``OSError`` with an errno, the
+    constructor returns the more specific :class:`TransactionTimeout` when
+    nothing answered (no ack, or no response in time), so ``except
+    fw1394.Timeout`` catches those wherever they come from.
+    """
+
+    def __new__(cls, failure: TransactionFailed) -> EngineTransactionError:
+        if cls is EngineTransactionError and failure.reason in _UNANSWERED:
+            cls = TransactionTimeout
+        return super().__new__(cls, failure)
 
     def __init__(self, failure: TransactionFailed) -> None:
         self.failure = failure
@@ -59,7 +77,34 @@ class TransactionError(RuntimeError):
             text += f" ({name_of(RCode, failure.rcode)})"
         if failure.detail and failure.detail != text:
             text += f": {failure.detail}"
-        super().__init__(text)
+        ack = AckCode[failure.reason.value] if failure.reason.value in AckCode.__members__ else None
+        super().__init__(text, ack=ack, rcode=failure.rcode)
+
+
+class TransactionTimeout(EngineTransactionError, errors.Timeout):
+    """A transaction no node answered: no ack, or no response before the split timeout."""
+
+
+#: The name the ports raise and catch it by.
+TransactionError = EngineTransactionError
+
+
+_UNANSWERED = frozenset({FailureReason.no_ack, FailureReason.response_timeout})
+
+
+class StaleGenerationError(TransactionError):
+    """A request addressed in a bus generation that has ended: it was never sent.
+
+    Physical IDs are renumbered at every bus reset, so the node a request named
+    may be another node now (Linux's firewire-cdev fails such a request with
+    ``EAGAIN``). Its reason is ``bus_reset``; ``addressed`` and ``current`` are
+    the two generations.
+    """
+
+    def __init__(self, addressed: int, current: int) -> None:
+        self.addressed, self.current = addressed, current
+        detail = f"addressed in generation {addressed}, the bus is in {current}: not sent"
+        super().__init__(TransactionFailed(0, FailureReason.bus_reset, detail=detail))
 
 
 class BusHost:
@@ -109,6 +154,8 @@ class BusHost:
         self._served_at = time.monotonic()
         self._paused_after = self.station.membership.timing.heartbeat
         self.resets: list[BusReset] = []
+        #: The generation requests started now are pinned to (None: the current one).
+        self._addressed_in: int | None = None
 
     # -- context manager ----------------------------------------------------------------
     def __enter__(self) -> Self:
@@ -167,6 +214,20 @@ class BusHost:
             self._pump()
 
     # -- transactions (non-blocking starts) ----------------------------------------------
+    @contextmanager
+    def addressed_in(self, generation: int | None) -> Iterator[None]:
+        """Requests started inside are pinned to bus ``generation`` (None: not pinned).
+
+        One whose generation has ended by the time it would go out raises
+        :class:`StaleGenerationError` and is not sent: its physical ID may name
+        another node now.
+        """
+        outer, self._addressed_in = self._addressed_in, generation
+        try:
+            yield
+        finally:
+            self._addressed_in = outer
+
     def start_read_quadlet(self, node: int, offset: int) -> int:
         tid = self.requester.read_quadlet(resolve(node), offset, self.on_bus())
         self._flush_requests()
@@ -229,12 +290,23 @@ class BusHost:
 
     # -- the loop -----------------------------------------------------------------------
     def on_bus(self) -> float:
-        """Make sure this host is on the bus and ready; the time it was sure of it."""
+        """Make sure this host is on the bus and ready; the time it was sure of it.
+
+        Every request is started right after this: it raises
+        :class:`StaleGenerationError` if the request is pinned to a generation
+        (:meth:`addressed_in`) the bus has left.
+        """
         now = self._back_if_away()
-        if self.station.membership.ready:
-            return now
-        self.wait_ready()
-        return time.monotonic()
+        station = self.station
+        if not station.membership.ready:
+            self.wait_ready()
+            now = time.monotonic()
+        if self.requester.generation != station.generation:
+            self.link.apply_changes()  # the engine learns of a reset before it sends
+        pinned = self._addressed_in
+        if pinned is not None and pinned != station.generation:
+            raise StaleGenerationError(pinned, station.generation)
+        return now
 
     def _back_if_away(self) -> float:
         """Catch up with the bus if this host has been away from it; now."""

@@ -19,6 +19,8 @@ import hashlib
 import re
 from dataclasses import dataclass, field
 
+from fw1394.errors import UsageError
+
 DEFAULT_BUS = "default"
 #: Administratively scoped IPv4 multicast (RFC 2365): never routed off a site.
 GROUP_PREFIX = (239, 255)
@@ -33,7 +35,7 @@ SHARDS = 16
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,62}$")
 
 
-class BusNameError(ValueError):
+class BusNameError(UsageError):
     """A bus name that cannot be used (it also names a runtime directory)."""
 
 

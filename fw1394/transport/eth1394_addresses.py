@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from ipaddress import IPv4Address, IPv4Network
 from pathlib import Path
 
+from fw1394.errors import UsageError
 from fw1394.packets.eth1394 import MULTICAST_GROUP, UDP_PORT
 
 LOOPBACK_NETWORK = IPv4Network("127.0.0.0/8")
@@ -25,7 +26,7 @@ DEFAULT_LOOPBACK_SERVER = "127.0.0.1"
 MULTICAST_FIRMWARE = 9
 
 
-class AddressRefusedError(ValueError):
+class AddressRefusedError(UsageError):
     """An address fw1394 will not use: it would reach beyond this machine."""
 
 

@@ -8,6 +8,7 @@ import sys
 import time
 from pathlib import Path
 
+from fw1394.errors import Error
 from fw1394.transport.config import BusConfig
 from fw1394.transport.observe import BusView, watch
 from fw1394.transport.runtime import (
@@ -23,7 +24,7 @@ from fw1394.transport.runtime import (
 from fw1394.transport.seal import KEY_ENV, KEY_FILE_ENV, write_key
 
 
-class LaunchError(RuntimeError):
+class LaunchError(Error, RuntimeError):
     """The bus did not come up."""
 
 

@@ -33,6 +33,7 @@ from fw1394.engine import Requester, Responder
 from fw1394.engine.fast_requester import FastEnds
 from fw1394.engine.fast_responder import FastResponder
 from fw1394.engine.responder import Reply, decode_received
+from fw1394.errors import BusUnreachable
 from fw1394.packets import AckCode, AsyncPacket
 from fw1394.packets.accessors import TLABEL
 from fw1394.packets.ack import ack_code
@@ -46,7 +47,6 @@ from fw1394.transport.wire import (
     FrameKind,
     FrameTooLarge,
     ack_byte,
-    parse_ack,
 )
 
 #: Puts a frame on the link: kind, destination physical ID, payload.
@@ -63,7 +63,7 @@ _clock = time.monotonic
 _tlabel = TLABEL.of_bytes
 
 
-class BusRefusedError(RuntimeError):
+class BusRefusedError(BusUnreachable):
     """The coordinator would not take this member (the bus already has 63)."""
 
 
@@ -282,7 +282,12 @@ class RequesterLink(LinkLayer):
     def on_ack(self, sender: int, sequence: int, payload: bytes, now: float) -> None:
         """Ack frame ``sequence`` from physical ID ``sender``, maybe with a response behind."""
         if len(payload) < ACK_SIZE:
-            parse_ack(payload)  # raises its FrameError
+            # Too short to name a transaction: dropped and counted, never the end
+            # of this member (whoever sent it: a member with a bug, or anyone on
+            # an insecure bus).
+            if self.station is not None:
+                self.station.drops.malformed += 1
+            return
         # Unpacked in place rather than through parse_ack's AckPayload: every
         # transaction has one.
         byte, tlabel, _, _ = _unpack_ack(payload)

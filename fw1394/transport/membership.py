@@ -27,6 +27,7 @@ from fw1394.transport.selfid import is_self_id, self_id_bytes
 from fw1394.transport.wire import (
     EVERY_MEMBER,
     MAX_MEMBERS,
+    FrameError,
     FrameHeader,
     FrameKind,
     MemberInfo,
@@ -43,6 +44,11 @@ SortKey = tuple[bool, int, int]
 #: generation is out of date (and on a keyed bus, where nobody can forge a frame
 #: of this generation, the only way to replay one).
 _OF_THIS_GENERATION = frozenset({FrameKind.reset_request, FrameKind.leave})
+#: Generations beyond this are no bus's (a reset a millisecond would take 24 days
+#: to get there): taken in, one would make the next reset's number wrap past the
+#: frame header's 32 bits, and every member would ignore it as stale.
+MAX_GENERATION = 0x7FFFFFFF
+_TABLES = frozenset({FrameKind.beacon, FrameKind.bus_reset})
 
 
 @dataclass(frozen=True, slots=True)
@@ -178,35 +184,45 @@ class Membership:
             self._rejoin(now)
 
     def receive(self, header: FrameHeader, payload: bytes, now: float) -> None:
-        """A frame from another member (any kind; non-management kinds are ignored)."""
+        """A frame from another member (any kind; non-management kinds are ignored).
+
+        Raises :class:`FrameError` (and changes nothing) for a frame that cannot be
+        one of a working member: a short table, join or refusal, or a generation no
+        bus reaches.
+        """
         kind = header.kind
+        if header.generation > MAX_GENERATION:
+            raise FrameError(f"generation {header.generation} is beyond any bus's")
+        # Parsed before anything changes: a frame that does not parse changes nothing.
+        table = parse_table(payload) if kind in _TABLES else None
+        join = parse_join(payload) if kind == FrameKind.join else None
+        refusal = parse_refusal(payload) if kind == FrameKind.refused else None
         if kind in (FrameKind.join, FrameKind.bus_reset):
             self._highest_generation = max(self._highest_generation, header.generation)
         if kind == FrameKind.phy_packet:
-            if header.generation == self.generation and is_self_id(payload):
+            this_generation = header.generation == self.generation
+            if this_generation and header.sender_phy < len(self.members) and is_self_id(payload):
                 self.self_ids[header.sender_phy] = payload
             return
         if kind in _OF_THIS_GENERATION and header.generation < self.generation:
             return  # the reset since has done what it asked for; or a replay
-        if self.role is Role.coordinator:
-            self._boss.last_heard[header.sender] = now
-        if kind == FrameKind.beacon:
-            self._on_beacon(header, payload, now)
-        elif kind == FrameKind.bus_reset:
-            self._on_reset(header, payload, now)
-        elif kind == FrameKind.join:
-            self._on_join(header, payload, now)
+        heard = self._boss.last_heard
+        if self.role is Role.coordinator and header.sender in heard:
+            heard[header.sender] = now  # members only: anyone else would grow it unbounded
+        if table is not None and kind == FrameKind.beacon:
+            self._on_beacon(header, table[1], now)
+        elif table is not None:
+            self._on_reset(header, table, now)
+        elif join is not None:
+            self._on_join(join, now)
         elif kind == FrameKind.leave:
             self._on_leave(header, now)
         elif kind == FrameKind.reset_request and self.role is Role.coordinator:
             self._schedule_reset(now, header.sender)
-        elif kind == FrameKind.refused:
-            member_id, reason = parse_refusal(payload)
-            if member_id == self.me.member_id:
-                self._changes.append(Refused(reason))
+        elif refusal is not None and refusal[0] == self.me.member_id:
+            self._changes.append(Refused(refusal[1]))
 
-    def _on_beacon(self, header: FrameHeader, payload: bytes, now: float) -> None:
-        _, table = parse_table(payload)
+    def _on_beacon(self, header: FrameHeader, table: tuple[MemberInfo, ...], now: float) -> None:
         entry = next((m for m in table if m.member_id == header.sender), None)
         if entry is None:
             return
@@ -237,7 +253,9 @@ class Membership:
             live[self.members[0].member_id] = self.members[0].sort_key
         return min(live, key=live.__getitem__) if live else None
 
-    def _on_reset(self, header: FrameHeader, payload: bytes, now: float) -> None:
+    def _on_reset(
+        self, header: FrameHeader, table: tuple[int, tuple[MemberInfo, ...]], now: float
+    ) -> None:
         if header.generation <= self.generation:
             return  # stale, or a copy of a reset already taken part in
         if self.role is Role.coordinator and header.sender != self.me.member_id:
@@ -245,7 +263,7 @@ class Membership:
             theirs = known[0] if known else None
             if theirs is not None and theirs > self.me.sort_key:
                 return  # a coordinator that must yield to us; it will hear our beacon
-        initiator, members = parse_table(payload)
+        initiator, members = table
         self._enter(header.generation, members, initiator, now)
 
     def _enter(
@@ -289,8 +307,8 @@ class Membership:
         self._send(FrameKind.phy_packet, EVERY_MEMBER, raw)
         self._changes.append(BusReset(generation, phy_id, members, initiator))
 
-    def _on_join(self, header: FrameHeader, payload: bytes, now: float) -> None:
-        info, target = parse_join(payload)
+    def _on_join(self, join: tuple[MemberInfo, int], now: float) -> None:
+        info, target = join
         if self.role is not Role.coordinator or target not in (0, self.me.member_id):
             return
         listed = any(m.member_id == info.member_id for m in self.members)

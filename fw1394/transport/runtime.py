@@ -1,6 +1,7 @@
 """Runtime state of buses: one directory per bus.
 
-``$XDG_RUNTIME_DIR/fw1394/<bus>/`` (or ``/tmp/fw1394-<uid>/<bus>/``) holds
+``$XDG_RUNTIME_DIR/fw1394/<bus>/`` (or ``/tmp/fw1394-<uid>/<bus>/``; the root is
+this user's, mode 0700, or nothing starts: :func:`runtime_root`) holds
 ``supervisor.pid`` and ``nodes.json`` (the node processes it started), the
 bus key (``key``, mode 0600, on a keyed bus), the host adapter's socket
 ``adapter.sock`` (mode 0600) with ``adapter.pid``, and ``members/``: one small
@@ -16,11 +17,14 @@ import json
 import os
 import shutil
 import signal
+import stat
+import tempfile
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from fw1394.errors import UsageError
 from fw1394.transport.config import check_bus_name
 from fw1394.transport.procs import process_alive
 
@@ -52,14 +56,16 @@ class MemberRecord:
     #: Frames dropped without a valid MAC, and as replays; None on an insecure bus.
     forged: int | None = None
     replayed: int | None = None
+    #: Frames dropped as no well-formed frame of their kind (on every bus).
+    malformed: int = 0
 
 
 class MemberFile:
     """This member's file in the bus's runtime directory (``bus down``, ``bus status``)."""
 
-    def __init__(self, bus: str, info: MemberInfo, dropped: DropCounts | None) -> None:
+    def __init__(self, bus: str, info: MemberInfo, dropped: DropCounts, *, keyed: bool) -> None:
         self._directory = bus_dir(bus)
-        self._info, self._dropped = info, dropped
+        self._info, self._dropped, self._keyed = info, dropped, keyed
         self._path: Path | None = None
         self._written: int | None = None
         self._due = 0.0
@@ -68,7 +74,7 @@ class MemberFile:
     def update(self, now: float) -> None:
         # Rewritten when the drop counts changed, at most once a second.
         dropped = self._dropped
-        total = None if dropped is None else dropped.total
+        total = dropped.total
         if (self._path is not None and total == self._written) or now < self._due:
             return
         self._written, self._due = total, now + 1.0
@@ -77,8 +83,9 @@ class MemberFile:
             info.pid,
             info.member_id,
             info.host,
-            None if dropped is None else dropped.forged,
-            None if dropped is None else dropped.replayed,
+            dropped.forged if self._keyed else None,
+            dropped.replayed if self._keyed else None,
+            dropped.malformed,
         )
         with contextlib.suppress(OSError):  # a read-only runtime directory costs only this
             self._path = write_member(self._directory, record)
@@ -89,11 +96,58 @@ class MemberFile:
                 remove_member(self._path)
 
 
+class RuntimeRootError(UsageError, OSError):
+    """The runtime root is not a private directory of this user: someone else could
+    have made it, or can see or change what is in it."""
+
+
 def runtime_root() -> Path:
+    """Where this user's buses keep their state, checked (see :func:`check_private`).
+
+    ``$XDG_RUNTIME_DIR/fw1394`` when ``XDG_RUNTIME_DIR`` is set (the login
+    manager's per-user directory), else ``/tmp/fw1394-<uid>``: a name anyone
+    can guess, so whoever made it must be this user, and nobody else may write
+    in it or list its bus names.
+    """
     base = os.environ.get("XDG_RUNTIME_DIR")
-    if base and os.path.isdir(base) and os.access(base, os.W_OK):
-        return Path(base) / "fw1394"
-    return Path(f"/tmp/fw1394-{os.getuid()}")
+    if not base:
+        root = Path(tempfile.gettempdir()) / f"fw1394-{os.getuid()}"
+        check_private(root)
+        return root
+    if not os.path.isdir(base):
+        raise RuntimeRootError(f"XDG_RUNTIME_DIR={base} is not a directory")
+    check_private(Path(base))  # another user's, after su: not ours to use
+    check_private(Path(base) / "fw1394")
+    return Path(base) / "fw1394"
+
+
+def check_private(directory: Path) -> None:
+    """Raise :class:`RuntimeRootError` unless ``directory`` is missing or a real
+    directory of this user that only this user can enter (mode 0700).
+
+    A directory of this user that others can only read and enter (0755, as
+    fw1394 made its root before) is made 0700: nobody else can have put
+    anything in it.
+    """
+    try:
+        info = directory.lstat()
+    except FileNotFoundError:
+        return
+    if not stat.S_ISDIR(info.st_mode):
+        raise RuntimeRootError(f"runtime directory {directory} is not a directory")
+    if info.st_uid != os.getuid():
+        raise RuntimeRootError(
+            f"runtime directory {directory} belongs to uid {info.st_uid}, not this user "
+            f"(uid {os.getuid()}): someone else made it; remove it or set XDG_RUNTIME_DIR"
+        )
+    mode = stat.S_IMODE(info.st_mode)
+    if mode & 0o022:
+        raise RuntimeRootError(
+            f"runtime directory {directory} has mode {mode:04o}: others can write in it; "
+            f"remove it (fw1394 makes it 0700) or set XDG_RUNTIME_DIR"
+        )
+    if mode & 0o077:
+        os.chmod(directory, 0o700)  # ours, unwritable by others: only hide its names
 
 
 def bus_dir(name: str, root: Path | None = None) -> Path:
@@ -101,6 +155,12 @@ def bus_dir(name: str, root: Path | None = None) -> Path:
 
 
 def prepare(name: str, root: Path | None = None) -> Path:
+    """The bus's directory, made if needed (its root too, 0700)."""
+    if root is None:
+        root = runtime_root()
+        with contextlib.suppress(FileExistsError):  # made meanwhile: checked below
+            root.mkdir(mode=0o700)
+        check_private(root)
     directory = bus_dir(name, root)
     directory.mkdir(parents=True, exist_ok=True, mode=0o700)
     return directory

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from itertools import count
 from pathlib import Path
 
+from fw1394.errors import UsageError
 from fw1394.packets.frame import (
     FRAME_COUNTER_FORMAT,
     FRAME_HEADER_SPANS,
@@ -48,7 +49,7 @@ _COUNTER = FRAME_COUNTER_FORMAT
 _WINDOW_MASK = (1 << REPLAY_WINDOW) - 1
 
 
-class BusKeyError(ValueError):
+class BusKeyError(UsageError):
     """A key file or variable that does not hold a usable bus key."""
 
 
@@ -129,24 +130,26 @@ class Sealer:
 
 @dataclass(slots=True)
 class DropCounts:
-    """Frames a member dropped: no valid MAC, or a counter already seen."""
+    """Frames a member dropped: no valid MAC, a counter already seen, or (keyed or
+    not) bytes that are no well-formed frame of their kind."""
 
     forged: int = 0
     replayed: int = 0
+    malformed: int = 0
 
     @property
     def total(self) -> int:
-        return self.forged + self.replayed
+        return self.forged + self.replayed + self.malformed
 
 
 class Verifier:
     """Checks each received frame; what it drops is counted in :attr:`dropped`."""
 
-    def __init__(self, key: bytes) -> None:
+    def __init__(self, key: bytes, dropped: DropCounts | None = None) -> None:
         self._keyed = hashlib.blake2s(key=key, digest_size=FRAME_MAC_SIZE)
         #: sender member id -> (newest counter, bit k set: newest - k seen)
         self._windows: dict[int, tuple[int, int]] = {}
-        self.dropped = DropCounts()
+        self.dropped = DropCounts() if dropped is None else dropped
 
     def authentic(self, raw: bytes) -> bool:
         """Whether ``raw`` carries a valid MAC (no replay check, nothing counted)."""

@@ -30,6 +30,7 @@ from fw1394.transport.membership import Change, Membership, Role, Timing
 from fw1394.transport.procs import pid_namespace, process_alive
 from fw1394.transport.seal import DropCounts, Sealer, Verifier, key_for
 from fw1394.transport.wire import (
+    BROADCAST_PHY,
     CONTROL_KINDS,
     HEADER,
     HEADER_SIZE,
@@ -38,6 +39,7 @@ from fw1394.transport.wire import (
     NO_BOARD,
     NO_PHY,
     VERSION,
+    FrameError,
     FrameHeader,
     FrameKind,
     FrameTooLarge,
@@ -48,6 +50,7 @@ _FAULTED = frozenset({FrameKind.async_packet, FrameKind.ack})
 #: Kinds :class:`Membership` takes; only PHY packets of them also reach the owner.
 _MANAGED = frozenset({*CONTROL_KINDS, FrameKind.phy_packet})
 _PHY_PACKET = int(FrameKind.phy_packet)
+_LAST_PHY = BROADCAST_PHY - 1
 
 
 def skipping(layout: struct.Struct, skipped: frozenset[int]) -> struct.Struct:
@@ -118,7 +121,9 @@ class Station:
         # A keyed bus: every datagram out is sealed (each copy on its own), every
         # one in verified; docs/virtual-bus.md, "Faults and threats".
         key = key_for(config)
-        self._verifier = None if key is None else Verifier(key)
+        #: What this member dropped; forgeries and replays only on a keyed bus.
+        self.drops = DropCounts()
+        self._verifier = None if key is None else Verifier(key, self.drops)
         # A received frame in: the data frame for the owner, or None.
         self._take: Callable[[bytes], tuple[FrameHeader, bytes] | None] = (
             self.take_opened if key is None else self._open_and_take
@@ -138,7 +143,7 @@ class Station:
         #: (a plain attribute, read on every turn of their loops).
         self.wake_by = math.inf
         self._last_pid_check = 0.0
-        self._record = runtime.MemberFile(config.name, self.info, self.dropped)
+        self._record = runtime.MemberFile(config.name, self.info, self.drops, keyed=key is not None)
 
     # -- state ------------------------------------------------------------------------
     @property
@@ -159,8 +164,10 @@ class Station:
 
     @property
     def dropped(self) -> DropCounts | None:
-        """Frames dropped for want of a valid MAC, or as replays; None: insecure bus."""
-        return None if self._verifier is None else self._verifier.dropped
+        """Frames dropped for want of a valid MAC, or as replays; None: insecure bus.
+
+        Malformed frames are counted on every bus, in :attr:`drops`."""
+        return None if self._verifier is None else self.drops
 
     def _sealed_sender(self, seal: Callable[[bytes], bytes]) -> Callable[[bytes], None]:
         send = self.medium.send
@@ -251,10 +258,21 @@ class Station:
         header: FrameHeader = _new_header(FrameHeader, _FIELDS.unpack_from(raw))
         payload = raw[HEADER_SIZE:]
         if header.kind in _MANAGED:
-            self.membership.receive(header, payload, time.monotonic())
+            try:
+                self.membership.receive(header, payload, time.monotonic())
+            except FrameError:
+                # A short table, join or refusal: whoever sent it (a member with a
+                # bug, or anyone on an insecure bus) must not end this member.
+                self.drops.malformed += 1
+                return None
             self._flush_control()
             if header.kind != _PHY_PACKET:
                 return None
+        if header.sender_phy > _LAST_PHY:
+            # No member sends data before it has a node's physical ID: answering
+            # or acking it would address nobody.
+            self.drops.malformed += 1
+            return None
         return header, payload
 
     def service(self, now: float | None = None) -> None:

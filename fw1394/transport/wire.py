@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from enum import IntEnum
 from typing import NamedTuple
 
+from fw1394.errors import PacketError
 from fw1394.packets import Speed
 from fw1394.packets.ack import ack_byte as ack_byte  # re-exported: bus members use it
 from fw1394.packets.ack import ack_code
@@ -94,11 +95,11 @@ CONTROL_KINDS = frozenset(
 )
 
 
-class FrameError(ValueError):
+class FrameError(PacketError):
     """Bytes that are not a frame of this bus."""
 
 
-class FrameTooLarge(ValueError):
+class FrameTooLarge(PacketError):
     """A frame that does not fit one datagram: the tunnel cannot carry it."""
 
     def __init__(self, size: int) -> None:

@@ -23,6 +23,8 @@ DEFAULT_DAC_STEP = 256
 
 
 class Action(StrEnum):
+    """What a key press asks the watch view to do."""
+
     QUIT = "quit"
     NEXT_AXIS = "next axis"
     PREVIOUS_AXIS = "previous axis"
@@ -41,6 +43,8 @@ class Action(StrEnum):
 
 @dataclass(frozen=True)
 class Command:
+    """An action with its number, for the actions that take one (the channel to select)."""
+
     action: Action
     number: int = 0
 

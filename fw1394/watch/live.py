@@ -8,6 +8,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from types import FrameType
 
+from fw1394.errors import Error
 from fw1394.watch.controls import KEY_HELP, Controller
 from fw1394.watch.conversions import Conversions, watchdog_seconds
 from fw1394.watch.screen import Render, run_curses
@@ -79,7 +80,7 @@ def amplifier_notice(controller: Controller, rate_hz: float) -> Line | None:
     return Line(text, Style.ALERT if alert else Style.NORMAL)
 
 
-class Stopped(Exception):
+class Stopped(Error):
     """The process was asked to end (SIGTERM, SIGHUP): leave as after the quit key."""
 
 

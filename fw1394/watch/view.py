@@ -28,6 +28,8 @@ from fw1394.watch.readings import BoardReading, ChannelReading
 
 
 class Style(StrEnum):
+    """How a line of the watch view is drawn."""
+
     TITLE = "title"
     HEADER = "header"
     NORMAL = "normal"
@@ -38,6 +40,8 @@ class Style(StrEnum):
 
 @dataclass(frozen=True)
 class Line:
+    """One line of the watch view: its text and style."""
+
     text: str
     style: Style = Style.NORMAL
 

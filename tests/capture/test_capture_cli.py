@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 from polling import wait_until
 
-from fw1394.capture.analysis import batch as batches
 from fw1394.capture.analysis.traffic_sim import Scenario, simulate
+from fw1394.capture.formats import batch as batches
 from fw1394.capture.formats import containers
 from fw1394.capture.formats.record import BusRecord, RecordType
 from fw1394.capture.formats.trace_writer import write_trace

@@ -9,9 +9,10 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fw1394.capture.analysis import batch as batches
 from fw1394.capture.analysis.columns import Problem, decode
-from fw1394.capture.analysis.crcvec import crc_of_blocks, crc_of_columns, quadlet_view
+from fw1394.capture.analysis.crcvec import crc_of_blocks, crc_of_columns
+from fw1394.capture.formats import batch as batches
+from fw1394.capture.formats.batch import quadlet_view
 from fw1394.capture.formats.record import BusRecord, RecordType
 from fw1394.crc import crc32
 from fw1394.packets import LAYOUTS, AsyncPacket, PacketError

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fw1394.capture.analysis import batch as batches
 from fw1394.capture.analysis.traffic_sim import Scenario, simulate
+from fw1394.capture.formats import batch as batches
 from fw1394.capture.formats import containers, nosy, pseudo_header, sources
 from fw1394.capture.formats.pcap_writer import LINKTYPE_ETHERNET, PcapngWriter, PcapWriter
 from fw1394.capture.formats.record import BusRecord, Direction, RecordType

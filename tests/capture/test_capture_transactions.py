@@ -7,11 +7,11 @@ from collections.abc import Sequence
 import numpy as np
 import pytest
 
-from fw1394.capture.analysis import batch as batches
 from fw1394.capture.analysis.columns import decode
 from fw1394.capture.analysis.traffic_sim import Scenario, simulate
 from fw1394.capture.analysis.transaction_model import Flag, Kind
 from fw1394.capture.analysis.transactions import Pairer, Transactions
+from fw1394.capture.formats import batch as batches
 from fw1394.capture.formats.record import BusRecord, RecordType
 from fw1394.packets import (
     AckCode,

@@ -60,6 +60,7 @@ def dissect(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, s
 
 # -- standard input and -r ------------------------------------------------------------------
 @pytest.mark.parametrize("view", [[], ["--transactions"], ["--stats", "--json"]])
+@pytest.mark.process
 def test_stdin_gives_what_the_file_gives(trace: Path, view: list[str]) -> None:
     from_file = fw1394("dissect", str(trace), *view)
     from_pipe = fw1394("dissect", "-", *view, stdin=trace.read_bytes())
@@ -76,6 +77,7 @@ def test_stdin_gives_what_the_file_gives(trace: Path, view: list[str]) -> None:
 
 
 @pytest.mark.parametrize("name", ["firewire-tracepoints.txt", "firewire-ohci-dmesg.txt"])
+@pytest.mark.process
 def test_stdin_detects_kernel_text(name: str) -> None:
     path = DATA / name
     from_file = fw1394("dissect", str(path))
@@ -91,6 +93,7 @@ def test_r_option_and_positional_agree(trace: Path, capsys: pytest.CaptureFixtur
     assert status == 2 and out == "" and "give one" in err
 
 
+@pytest.mark.process
 def test_empty_stdin_is_an_error() -> None:
     result = fw1394("dissect", "-", stdin=b"")
     assert (
@@ -183,6 +186,7 @@ def test_kernel_format_on_random_bytes(tmp_path: Path, capsys: pytest.CaptureFix
     assert "nothing recognised" in err and len(err.splitlines()) == 1
 
 
+@pytest.mark.process
 def test_cut_short_pcapng_exits_like_tshark(trace: Path, tmp_path: Path) -> None:
     cut = tmp_path / "cut.pcapng"
     whole = trace.read_bytes()
@@ -208,6 +212,7 @@ def test_directory_and_missing_inputs(tmp_path: Path, capsys: pytest.CaptureFixt
     assert status == 2 and "no trace given" in err
 
 
+@pytest.mark.process
 def test_capture_of_a_bus_that_is_not_running() -> None:
     started = time.monotonic()
     result = fw1394("capture", "--bus", f"nosuchbus{os.getpid()}", "-w", "-")
@@ -217,11 +222,13 @@ def test_capture_of_a_bus_that_is_not_running() -> None:
     assert time.monotonic() - started < 30
 
 
+@pytest.mark.process
 def test_capture_refuses_a_directory(tmp_path: Path) -> None:
     result = fw1394("capture", "-w", str(tmp_path))
     assert result.returncode == 2 and b"is a directory" in result.stderr
 
 
+@pytest.mark.process
 def test_demo_refuses_a_directory_for_its_capture(tmp_path: Path) -> None:
     started = time.monotonic()
     result = fw1394("demo", "--capture", str(tmp_path), "--no-plot")
@@ -260,6 +267,7 @@ def test_capture_to_stdout_writes_only_the_trace(
     assert b"written to standard output" in captured.err
 
 
+@pytest.mark.process
 def test_live_bus_piped_into_dissect_and_tshark(tmp_path: Path) -> None:
     name = f"pipe{os.getpid()}"
     up = fw1394("bus", "up", "--name", name, "--nodes", "2", timeout=90)

@@ -43,6 +43,7 @@ def tshark_rows(lua: Path, trace: Path, *fields: str) -> list[list[str]]:
     return [line.split("\t") for line in result.stdout.splitlines()]
 
 
+@pytest.mark.process
 def test_every_ack_byte(lua: Path, tmp_path: Path) -> None:
     trace = tmp_path / "acks.pcapng"
     records = [BusRecord(i, RecordType.ack, bytes([i])) for i in range(256)]
@@ -59,6 +60,7 @@ def test_every_ack_byte(lua: Path, tmp_path: Path) -> None:
     max_examples=5, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
 )
 @given(st.lists(phy_packets(), min_size=20, max_size=40))
+@pytest.mark.process
 def test_phy_packet_kinds(lua: Path, tmp_path: Path, packets: list[PhyPacket]) -> None:
     trace = tmp_path / "phy.pcapng"
     raws = [encode(packet) for packet in packets]

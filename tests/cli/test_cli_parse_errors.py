@@ -80,6 +80,7 @@ def test_errors_name_the_argument(
     assert blamed in one_line_failure(capsys, argv)
 
 
+@pytest.mark.process
 def test_parse_error_through_the_real_entry_point() -> None:
     result = subprocess.run(
         [sys.executable, "-m", "fw1394.cli.main", "read", "0", "xyz"],

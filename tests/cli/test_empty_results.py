@@ -99,6 +99,7 @@ def test_a_filtered_transaction_view_prints_only_what_matched(
     assert all("ffc2" in line for line in lines if "----" not in line)
 
 
+@pytest.mark.process
 def test_regdocs_without_a_document_says_how_to_call_it() -> None:
     result = subprocess.run(
         [sys.executable, "-m", "fw1394.boards.regdocs"], capture_output=True, text=True, timeout=60
@@ -107,6 +108,7 @@ def test_regdocs_without_a_document_says_how_to_call_it() -> None:
     assert "no document named" in result.stderr and "docs/boards/*.md" in result.stderr
 
 
+@pytest.mark.process
 def test_regdocs_says_what_it_found(tmp_path: Path) -> None:
     plain = tmp_path / "plain.md"
     plain.write_text("# no tables here\n")

@@ -116,6 +116,7 @@ def test_offline_commands(
         assert (status, err) == (2, FULL + "\n"), argv
 
 
+@pytest.mark.process
 def test_a_closed_pipe_ends_quietly(trace: Path) -> None:
     """`| head`: the reader asked for no more; no traceback, no error line (as tshark)."""
     command = [sys.executable, "-m", "fw1394.cli.main", "dissect", str(trace), "-v"]

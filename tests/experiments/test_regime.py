@@ -80,6 +80,7 @@ def test_halves_differ_when_one_slept_or_shared_a_cpu() -> None:
 
 
 @pytest.mark.skipif(not LINUX, reason="context switch counts come from Linux's /proc")
+@pytest.mark.process
 def test_switches_count_sleeps_here_and_in_a_peer() -> None:
     child = subprocess.Popen(
         [

@@ -15,6 +15,7 @@ import subprocess
 import sys
 from typing import Any
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -188,6 +189,7 @@ def test_a_late_reply_is_not_taken_for_a_later_request() -> None:
     assert replies.responses[0] == good
 
 
+@pytest.mark.process
 def test_a_campaign_against_jhu_serve_finds_nothing() -> None:
     server = subprocess.Popen(
         [

@@ -105,6 +105,7 @@ def test_runs_merge_by_signature(tmp_path: Path) -> None:
     assert merged(firsts, firsts) == firsts
 
 
+@pytest.mark.process
 def test_workers_repeat_a_run_and_merge_their_findings() -> None:
     settings = Settings(
         "inproc:memory",
@@ -143,6 +144,7 @@ def test_a_remote_target_needs_one_node_per_worker(capsys: pytest.CaptureFixture
     assert "{worker}" in capsys.readouterr().err
 
 
+@pytest.mark.process
 def test_a_shell_restart_keeps_status_and_output() -> None:
     record = ShellRestart("echo worker $FW1394_FUZZ_WORKER {worker}; exit 4", worker=3)()
     assert record == RestartRecord("echo worker $FW1394_FUZZ_WORKER 3; exit 4", 4, "worker 3 3\n")

@@ -76,6 +76,7 @@ CHILD = textwrap.dedent(
 
 
 @needs_namespace
+@pytest.mark.process
 def test_multicast_read_from_unspecified_source_is_answered() -> None:
     result = subprocess.run(
         ["unshare", "-n", sys.executable, "-c", CHILD],

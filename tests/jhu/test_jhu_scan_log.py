@@ -54,6 +54,7 @@ def scan_log(port: int) -> list[str]:
     return result.stderr.splitlines()
 
 
+@pytest.mark.process
 def test_scan_prints_the_library_lines_in_bridge_mode() -> None:
     server = serve("--boards", "2", "--firmware", "8", "--eth1394", f"127.0.0.1:{PORT}")
     try:
@@ -106,6 +107,7 @@ def test_git_description_suffix() -> None:
     assert git_suffix(0x1234567_2) == "? (git-1234567)"
 
 
+@pytest.mark.process
 def test_sigterm_ends_the_server_at_once() -> None:
     server = serve("--eth1394", f"127.0.0.1:{PORT + 1}")
     time.sleep(0.3)

@@ -28,7 +28,6 @@ from fw1394.packets.eth1394 import (
     Eth1394Request,
     Eth1394Response,
     ExtraBytes,
-    FieldRangeError,
     HostNodeFlag,
     HostReadRequest,
     HostVerdict,
@@ -45,6 +44,7 @@ from fw1394.packets.eth1394 import (
     parse_response,
     usable_write_data_size,
 )
+from fw1394.packets.fields import FieldRangeError
 
 
 def unhex(text: str) -> bytes:

@@ -54,6 +54,7 @@ from fw1394.transport.runtime import adapter_socket
             st.just(0.25),
             st.binary(max_size=16),
             st.binary(max_size=64),
+            st.integers(0, 2**32 - 1),
         ),
         min_size=1,
         max_size=5,

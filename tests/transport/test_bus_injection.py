@@ -84,6 +84,7 @@ def settle(port: BusPort, seconds: float = 0.6) -> None:
 
 
 @pytest.mark.parametrize("keyed", [False, True], ids=["insecure", "keyed"])
+@pytest.mark.process
 def test_a_forged_write_and_reset_change_nothing_on_a_keyed_bus(
     tmp_path: Path, keyed: bool
 ) -> None:
@@ -116,6 +117,7 @@ def test_a_forged_write_and_reset_change_nothing_on_a_keyed_bus(
     assert wait_until_gone(config.name) == []
 
 
+@pytest.mark.process
 def test_a_recorded_frame_sent_again_is_a_replay(tmp_path: Path) -> None:
     config = BusConfig(bus_name("replay"))
     key = new_key()
@@ -151,6 +153,7 @@ def test_a_recorded_frame_sent_again_is_a_replay(tmp_path: Path) -> None:
         assert counts.get(pid) == (0, 1)
 
 
+@pytest.mark.process
 def test_the_tap_records_only_genuine_frames_and_status_shows_the_count(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

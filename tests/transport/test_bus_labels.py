@@ -45,6 +45,7 @@ def fill(host: BusHost, node: int) -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.process
 def test_sixty_outstanding_reads_on_a_faulty_bus_never_return_wrong_data(
     tmp_path: Path,
 ) -> None:
@@ -90,6 +91,7 @@ def test_sixty_outstanding_reads_on_a_faulty_bus_never_return_wrong_data(
     assert outcomes["ok"] > READS * 0.8, outcomes
 
 
+@pytest.mark.process
 def test_reads_beyond_64_wait_for_labels_and_all_complete(tmp_path: Path) -> None:
     """The 65th read on waits inside the engine; the host sends it when a label frees."""
     config = BusConfig(bus_name("wait"))

@@ -69,6 +69,7 @@ report(kind="done")
 
 
 @pytest.mark.parametrize("depth", [1, 16])
+@pytest.mark.process
 def test_a_stopped_host_comes_back_without_failures_or_taking_over(
     tmp_path: Path, depth: int
 ) -> None:

@@ -22,6 +22,7 @@ ARGS = ("--heartbeat", "0.1", "--lease", "2.0")
 TIMING = Timing(heartbeat=0.1, lease=2.0)
 
 
+@pytest.mark.process
 def test_a_killed_node_is_restarted_and_answers(tmp_path: Path) -> None:
     config = BusConfig(bus_name("restart"))
     with LaunchedBus(
@@ -50,6 +51,7 @@ def test_a_killed_node_is_restarted_and_answers(tmp_path: Path) -> None:
     assert wait_until_gone(config.name) == []
 
 
+@pytest.mark.process
 def test_bus_down_stops_a_node_joined_by_hand(capsys: pytest.CaptureFixture[str]) -> None:
     name = bus_name("byhand")
     assert main(["bus", "up", "--name", name, "--nodes", "1", *ARGS]) == 0

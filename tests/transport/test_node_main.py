@@ -37,6 +37,7 @@ def node(*options: str) -> list[str]:
         (("--name", "bad name!"), "bus name"),
     ],
 )
+@pytest.mark.process
 def test_a_node_description_no_node_could_start_with_is_one_line(
     options: tuple[str, ...], message: str
 ) -> None:
@@ -48,6 +49,7 @@ def test_a_node_description_no_node_could_start_with_is_one_line(
     assert message in lines[0]
 
 
+@pytest.mark.process
 def test_help_teaches_the_description() -> None:
     done = subprocess.run(node("--help"), capture_output=True, text=True, timeout=30)
     assert done.returncode == 0
@@ -56,6 +58,7 @@ def test_help_teaches_the_description() -> None:
     assert "snake2010" in done.stdout  # the kinds come from the board registry
 
 
+@pytest.mark.process
 def test_a_node_serves_a_host_and_leaves_on_sigterm() -> None:
     name = bus_name("nodemain")
     process = subprocess.Popen(
@@ -80,6 +83,7 @@ def test_a_node_serves_a_host_and_leaves_on_sigterm() -> None:
         stop(process)
 
 
+@pytest.mark.process
 def test_a_bus_starts_its_nodes_through_the_node_program(tmp_path: Path) -> None:
     config = BusConfig(bus_name("nodeprog"))
     with LaunchedBus(

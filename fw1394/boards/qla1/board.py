@@ -114,7 +114,7 @@ class Qla1Board:
         self.watchdog = Watchdog(last_clear_tick=self._now)
         self.channels = [MotorChannel(number, self.firmware) for number in range(1, CHANNELS + 1)]
         self.phy = PhyInterface(node_id=self._node_id)
-        self.hub = HubState(self.board_id)
+        self.hub = HubState(self.board_id, self.firmware)
         has_ethernet = self.fpga_version >= 2
         self.csr = CsrSpace(build_config_rom(self.board_id, self.firmware, has_ethernet))
         self.csr.node_id = self._node_id

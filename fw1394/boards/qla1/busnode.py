@@ -177,7 +177,9 @@ class QlaBusNode:
         firmware = self.board.firmware
         check_multicast_allowed(firmware)
         address = require_loopback(board_address(base, self.board.board_id, firmware))
-        self._unicast = open_udp(address, endpoint.port)
+        # The board's own address is its alone; the broadcast and multicast sockets are
+        # shared with the other boards of the bus.
+        self._unicast = open_udp(address, endpoint.port, exclusive=True)
         self._udp = [self._unicast, open_udp(classful_broadcast(base), endpoint.port)]
         if firmware >= MULTICAST_FIRMWARE:
             group = open_udp(MULTICAST_GROUP, endpoint.port)

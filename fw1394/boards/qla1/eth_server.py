@@ -1,7 +1,10 @@
 """A :class:`~fw1394.boards.qla1.rack.Rack` on loopback UDP sockets, as the real host sees boards.
 
-Sockets (all on 127.0.0.0/8, all with SO_REUSEADDR so several servers and
-board processes can share the port):
+Sockets (all on 127.0.0.0/8, all with SO_REUSEADDR so the boards of a bus, each
+a process, can share the broadcast and multicast addresses). A server refuses
+an address another socket already holds, naming who holds it, unless asked to
+share it (``share_port``, ``jhu serve --reuse-port``): with two servers on one
+unicast address the host's requests would reach only one of them.
 
 * one unicast socket per cabled board, bound to the address the host sends
   that board's requests to (the base address before firmware 9, base + board
@@ -41,8 +44,11 @@ from fw1394.transport.eth1394_addresses import (
     multicast_route_check,
     require_loopback,
 )
+from fw1394.transport.udp_ports import refuse_taken_port
 
 MAX_DATAGRAM = 65_535
+#: The ``jhu serve`` option that shares a port another server holds.
+SHARE_OPTION = "--reuse-port"
 LOOPBACK_INTERFACE = "127.0.0.1"
 UNSPECIFIED = IPv4Address("0.0.0.0")
 
@@ -51,8 +57,16 @@ class MulticastRefusedError(AddressRefusedError):
     """Firmware >= 9 outside a namespace whose multicast route is on loopback."""
 
 
-def open_udp(address: str, port: int) -> socket.socket:
-    """A non-blocking UDP socket bound to ``address:port``, shareable with other processes."""
+def open_udp(
+    address: str, port: int, *, exclusive: bool = False, share_hint: str | None = None
+) -> socket.socket:
+    """A non-blocking UDP socket bound to ``address:port``, shareable with other processes.
+
+    ``exclusive``: PortInUseError (naming the holder; ``share_hint`` is the option
+    that would share instead) if another socket holds the address already.
+    """
+    if exclusive:
+        refuse_taken_port(address, port, share_hint=share_hint)
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     try:
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
@@ -158,6 +172,8 @@ class Eth1394Server:
     stats: ServerStats = field(default_factory=ServerStats)
     #: Where refused replies are reported (once per cause); default stderr.
     say: Callable[[str], None] | None = None
+    #: Bind even where another socket holds the address (both then get datagrams).
+    share_port: bool = False
 
     def __post_init__(self) -> None:
         base = require_loopback(self.endpoint.host)
@@ -170,17 +186,23 @@ class Eth1394Server:
         self._local: dict[int, str] = {}
         self._sockets: list[socket.socket] = []
         self._running = True
+        exclusive = not self.share_port
+        hint = SHARE_OPTION
+
+        def bind(address: str, port: int) -> socket.socket:
+            return open_udp(address, port, exclusive=exclusive, share_hint=hint)
+
         try:
             port = self.endpoint.port
             for index, port_model in self.rack.ports:
                 address = board_address(base, port_model.board.board_id, self.rack.firmware)
-                sock = open_udp(require_loopback(address), port)
+                sock = bind(require_loopback(address), port)
                 self._unicast[index] = sock
                 self._targets[sock] = index
                 self._local[index] = sock.getsockname()[0]
-            self._targets[open_udp(classful_broadcast(base), port)] = None
+            self._targets[bind(classful_broadcast(base), port)] = None
             if self.rack.firmware >= MULTICAST_FIRMWARE:
-                group = open_udp(MULTICAST_GROUP, port)
+                group = bind(MULTICAST_GROUP, port)
                 self._targets[group] = None
                 join_loopback_multicast(group)
         except OSError:

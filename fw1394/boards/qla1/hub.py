@@ -4,12 +4,30 @@ A quadlet write of ``(sequence << 16) | board_mask`` to 0x1800 starts a
 "broadcast read": every board in the mask samples its real-time block and
 broadcasts it; the hub collects the blocks so the host can fetch them all
 with one block read of 0x1000 (or, in Ethernet-only mode, receive them
-unasked). Hub memory holds, for each board in board-ID order,
-a header quadlet (block size including the header in 31..24, low byte of
-the sequence in 23..16, bit 15 set on a sequence mismatch, update time in
-14..0) and the block, plus one closing quadlet ({16-bit time of the last
-update, 16-bit time of the read}, 49.152 MHz ticks since the query) once
-every board in the mask has reported.
+unasked).
+
+How the blocks lie in hub memory depends on the hub's firmware revision
+(jhu-eth1394.md §2.10), and the host parses them by the revision of all its
+boards; :class:`HubLayout` holds the three families as data:
+
+* Rev 4-6: a 17-quadlet slot for every board number 0-15 (slot index = board
+  number; slots of boards not in the round stay zero): the full 16-bit
+  sequence in bits 31..16 of the header, then the first 16 quadlets of the
+  board's real-time block; no update time and no closing quadlet;
+* Rev 7: packed 29-quadlet blocks in board order: header = full 16-bit
+  sequence in 31..16 and the update time (14 bits) in 15..0, then the
+  28-quadlet Rev 7 block;
+* Rev 8 on: packed blocks in board order, header = block size including the
+  header in 31..24, low byte of the sequence in 23..16, bit 15 set on a
+  sequence mismatch, update time in 14..0 (14 bits before firmware 9, 15
+  from 9).
+
+Rev 7 and Rev 8+ end with one closing quadlet ({time of the last update,
+time of the read}, 49.152 MHz ticks since the query, 14 bits each before
+firmware 9, 16 from 9) once every board in the mask has reported. Times
+wrap at their width, as the firmware's counters do (the host detects the
+wrap). In a rack of mixed firmware the layout is the hub board's: the host
+only uses the broadcast read when every board is of one family.
 
 The meaning of 0x1801..0x1803 is only named in the reference notes; the
 exact packing used here (see :meth:`HubState.read_register`) is this
@@ -31,10 +49,13 @@ from fw1394.boards.qla1.regs import (
 )
 from fw1394.boards.qla1.rt_blocks import STATUS
 
-UPDATE_TIME_MASK = 0x7FFF
 SEQUENCE_MISMATCH = 1 << 15
 #: Board id sits in bits 27..24 of the status quadlet of a real-time block.
 STATUS_BOARD_ID_SHIFT = 24
+#: Board numbers a Rev 4-6 hub keeps a slot for.
+BOARD_NUMBERS = 16
+#: The first firmware with wider hub timers (15-bit update, 16-bit closing times).
+WIDE_TIMER_FIRMWARE = 9
 
 
 @dataclass(frozen=True)
@@ -45,15 +66,51 @@ class HubBlock:
     update_ticks: int
     quadlets: tuple[int, ...]
 
-    def header(self, current_sequence: int) -> int:
-        mismatch = SEQUENCE_MISMATCH if self.sequence != current_sequence else 0
-        size = (len(self.quadlets) + 1) & 0xFF
-        return (
-            size << 24
-            | (self.sequence & 0xFF) << 16
-            | mismatch
-            | min(self.update_ticks, UPDATE_TIME_MASK)
-        )
+
+@dataclass(frozen=True)
+class HubLayout:
+    """Where a firmware family puts each board's block in hub memory."""
+
+    family: str
+    #: Every board number 0-15 has its slot, in use or not (Rev 4-6); else packed.
+    slot_per_board_number: bool
+    #: Data quadlets a block keeps (16 for Rev 4-6, 28 for Rev 7); None: its own size.
+    data_quadlets: int | None
+    #: Header carries the full 16-bit sequence (Rev 4-7) or its low byte, the block
+    #: size and the mismatch bit (Rev 8+).
+    full_sequence: bool
+    #: Width of the update time in the header (0: none).
+    update_time_bits: int
+    #: Width of each half of the closing timing quadlet (0: no closing quadlet).
+    timing_bits: int
+
+    def header(self, block: HubBlock, current_sequence: int) -> int:
+        update = block.update_ticks & ((1 << self.update_time_bits) - 1)
+        if self.full_sequence:
+            return (block.sequence & 0xFFFF) << 16 | update
+        mismatch = SEQUENCE_MISMATCH if block.sequence != current_sequence else 0
+        size = (len(block.quadlets) + 1) & 0xFF
+        return size << 24 | (block.sequence & 0xFF) << 16 | mismatch | update
+
+    def data(self, block: HubBlock) -> tuple[int, ...]:
+        if self.data_quadlets is None:
+            return block.quadlets
+        kept = block.quadlets[: self.data_quadlets]
+        return kept + (0,) * (self.data_quadlets - len(kept))
+
+    def timing(self, last_update_ticks: int, read_ticks: int) -> int:
+        mask = (1 << self.timing_bits) - 1
+        return (last_update_ticks & mask) << 16 | read_ticks & mask
+
+
+def hub_layout(firmware: int) -> HubLayout:
+    """The hub memory layout of a board running ``firmware``."""
+    if firmware < 7:
+        return HubLayout("rev4-6", True, 16, True, 0, 0)
+    if firmware == 7:
+        return HubLayout("rev7", False, 28, True, 14, 14)
+    wide = firmware >= WIDE_TIMER_FIRMWARE
+    return HubLayout("rev8+", False, None, False, 15 if wide else 14, 16 if wide else 14)
 
 
 def reporting_board(block: Sequence[int]) -> int:
@@ -61,20 +118,20 @@ def reporting_board(block: Sequence[int]) -> int:
     return (block[STATUS] >> STATUS_BOARD_ID_SHIFT) & 0xF
 
 
-def _saturate16(ticks: int) -> int:
-    return min(max(ticks, 0), 0xFFFF)
-
-
 @dataclass
 class HubState:
     """Query registers and collected blocks of one board's hub."""
 
     board_id: int
+    firmware: int = 8
     sequence: int = 0
     board_mask: int = 0
     query_tick: int = 0
     blocks: dict[int, HubBlock] = field(default_factory=dict)
     last_update_tick: int = 0
+
+    def __post_init__(self) -> None:
+        self.layout = hub_layout(self.firmware)
 
     def query(self, value: int, now: int) -> None:
         """A write to 0x1800: new sequence and mask, forget the previous round."""
@@ -119,23 +176,35 @@ class HubState:
 
     def image(self, now: int) -> list[int]:
         """Hub memory as the host reads it from 0x1000."""
+        layout = self.layout
         memory: list[int] = []
+        if layout.slot_per_board_number:
+            assert layout.data_quadlets is not None
+            slot = layout.data_quadlets + 1
+            memory = [0] * (slot * BOARD_NUMBERS)
+            for board_id, block in self.blocks.items():
+                start = slot * board_id
+                memory[start : start + slot] = [
+                    layout.header(block, self.sequence),
+                    *layout.data(block),
+                ]
+            return memory[:HUB_MEMORY_QUADLETS]
         # Each board's block has a fixed slot, after those of the lower-numbered
         # boards of the mask (hence 0x1803's lower-board mask): board order, not
         # arrival order, which is also the order the host parses.
         for _, block in sorted(self.blocks.items()):
-            memory.append(block.header(self.sequence))
-            memory.extend(block.quadlets)
-        if self.complete:
-            last_update = _saturate16(self.last_update_tick - self.query_tick)
-            memory.append(last_update << 16 | _saturate16(now - self.query_tick))
+            memory.append(layout.header(block, self.sequence))
+            memory.extend(layout.data(block))
+        if self.complete and layout.timing_bits:
+            last_update = max(self.last_update_tick - self.query_tick, 0)
+            memory.append(layout.timing(last_update, max(now - self.query_tick, 0)))
         return memory[:HUB_MEMORY_QUADLETS]
 
     def read_register(self, index: int, now: int) -> int:
         """Quadlet at hub-space ``index`` (0x1000..0x1FFF); 0 where nothing is mapped."""
         if index == HUB_QUERY:
             return self.sequence << 16 | self.board_mask
-        written = sum(len(block.quadlets) + 1 for block in self.blocks.values())
+        written = sum(len(self.layout.data(block)) + 1 for block in self.blocks.values())
         if index == HUB_LAST_WRITE:
             # {index of the last quadlet written, quadlets in use}
             return max(written - 1, 0) << 16 | written

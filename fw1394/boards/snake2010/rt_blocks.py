@@ -23,9 +23,10 @@ from fw1394.boards.snake2010.spec import (
     rt_period_index,
     rt_read_quadlets,
 )
+from fw1394.errors import UsageError
 
 
-class BlockSizeError(ValueError):
+class BlockSizeError(UsageError):
     """A real-time block had the wrong number of bytes."""
 
 

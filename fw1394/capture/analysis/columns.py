@@ -13,9 +13,9 @@ from enum import IntFlag
 
 import numpy as np
 
-from fw1394.capture.analysis.batch import Batch, header_quadlets
-from fw1394.capture.analysis.crcvec import crc_of_blocks, crc_of_columns, quadlets_at
+from fw1394.capture.analysis.crcvec import crc_of_blocks, crc_of_columns
 from fw1394.capture.formats import pseudo_header as ph
+from fw1394.capture.formats.batch import Batch, header_quadlets, quadlets_at
 from fw1394.capture.formats.record import RecordType
 from fw1394.packets import LAYOUTS
 from fw1394.packets.accessors import TCODE

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from fw1394.capture.formats.batch import quadlets_at
+
 POLYNOMIAL = 0x04C11DB7
 _MASK = 0xFFFFFFFF
 
@@ -81,25 +83,3 @@ def crc_of_blocks(
     result: np.ndarray = np.empty_like(register)
     result[order] = register ^ np.uint32(_MASK)
     return result
-
-
-def quadlet_view(buf: np.ndarray) -> np.ndarray:
-    """A uint8 buffer seen as big-endian quadlets, without a copy.
-
-    Gather what is needed from it and convert only that (``astype(np.uint32)``):
-    cheaper than converting a whole chunk of which a fraction is read.
-    """
-    words: np.ndarray = buf[: len(buf) & ~3].view(">u4")
-    return words
-
-
-def quadlets_at(buf: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """Big-endian quadlets of a uint8 buffer at arbitrary byte offsets, as uint32."""
-    b = buf
-    gathered: np.ndarray = (
-        (b[offsets].astype(np.uint32) << 24)
-        | (b[offsets + 1].astype(np.uint32) << 16)
-        | (b[offsets + 2].astype(np.uint32) << 8)
-        | b[offsets + 3].astype(np.uint32)
-    )
-    return gathered

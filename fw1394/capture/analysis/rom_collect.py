@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from fw1394.capture.analysis.batch import Batch
 from fw1394.capture.analysis.csr import CONFIG_ROM, CONFIG_ROM_END, CSR_BASE
 from fw1394.capture.analysis.rom_decode import RomReport, decode_rom
 from fw1394.capture.analysis.transactions import Transactions
+from fw1394.capture.formats.batch import Batch
 from fw1394.packets import LAYOUTS, RCode, TCode
 
 #: ROMs kept at most (one per node and generation): bounds memory on long traces.

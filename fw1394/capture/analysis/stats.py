@@ -12,10 +12,10 @@ from typing import Any
 
 import numpy as np
 
-from fw1394.capture.analysis.batch import Batch
 from fw1394.capture.analysis.columns import Decoded, Problem, ack_codes, problem_names
 from fw1394.capture.analysis.transaction_model import ERROR_FLAGS, Flag, Kind
 from fw1394.capture.analysis.transactions import Transactions
+from fw1394.capture.formats.batch import Batch
 from fw1394.capture.formats.record import RecordType
 from fw1394.packets import AckCode, RCode, TCode, name_of
 from fw1394.packets.accessors import TCODE

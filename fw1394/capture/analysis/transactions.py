@@ -23,7 +23,6 @@ import numpy as np
 
 from fw1394.capture.analysis import column_table as table
 from fw1394.capture.analysis import pairing
-from fw1394.capture.analysis.batch import Batch
 from fw1394.capture.analysis.columns import CRC_PROBLEMS, Decoded, Problem, ack_codes
 from fw1394.capture.analysis.transaction_model import (
     BROADCAST_NODE,
@@ -45,6 +44,7 @@ from fw1394.capture.analysis.transaction_model import (
     Kind,
 )
 from fw1394.capture.formats import pseudo_header as ph
+from fw1394.capture.formats.batch import Batch
 from fw1394.capture.formats.record import RecordType
 from fw1394.packets import AckCode, ExtendedTCode, TCode
 

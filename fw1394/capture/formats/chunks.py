@@ -8,6 +8,7 @@ from typing import BinaryIO
 import numpy as np
 
 from fw1394.capture.formats.read_issues import Issue
+from fw1394.errors import PacketError
 
 CHUNK_SIZE = 4 << 20
 #: Zero bytes after every chunk so header gathers near its end stay in bounds.
@@ -37,7 +38,7 @@ class PacketChunk:
         return bytes(self.buf[begin : begin + int(self.length[index])])
 
 
-class FormatError(ValueError):
+class FormatError(PacketError):
     """The file is neither pcap nor pcapng."""
 
 

@@ -20,9 +20,9 @@ from collections.abc import Iterator
 from dataclasses import replace
 from typing import TextIO
 
-from fw1394.capture.analysis import batch as batches
-from fw1394.capture.analysis.batch import Batch
+from fw1394.capture.formats import batch as batches
 from fw1394.capture.formats import kernel_ohci, kernel_trace
+from fw1394.capture.formats.batch import Batch
 from fw1394.capture.formats.containers import Issue
 from fw1394.capture.formats.record import BusRecord, RecordType
 
@@ -76,7 +76,7 @@ class KernelTextReader:
             return traced_ns, True
         match = DMESG_TIME.match(line)
         if match:
-            return int(match[1]) * 1_000_000_000 + int(match[2].ljust(9, "0")[:9]), True
+            return kernel_trace.nanoseconds(match[1], match[2]), True
         self._order += 1
         return self._order, False
 

@@ -103,8 +103,23 @@ def parse(line: str, time_ns: int, state: OhciState) -> list[BusRecord] | None:
     return None
 
 
+#: The card's generation is a C unsigned int in the kernel.
+MAX_GENERATION = 0xFFFFFFFF
+#: Speed codes OHCI prints (S100 to S3200 and the reserved ones of its 3-bit field).
+MAX_SPEED = 7
+
+
+def _speed(digits: str) -> int:
+    speed = int(digits)
+    if speed > MAX_SPEED:
+        raise ValueError(f"speed code {speed} is not one of OHCI's (0-{MAX_SPEED})")
+    return speed
+
+
 def _bus_reset(generation: int, time_ns: int, state: OhciState) -> list[BusRecord]:
     # Both the AR bus-reset event and the self-ID summary announce a reset: keep one.
+    if generation > MAX_GENERATION:
+        raise ValueError(f"generation {generation} is beyond the kernel's 32 bits")
     state.generation = generation
     if generation in state.announced:
         return []
@@ -142,7 +157,7 @@ def _packet(match: re.Match[str], time_ns: int, state: OhciState) -> BusRecord:
         raw,
         state.generation,
         sender=phy_of(source),
-        speed=int(match["spd"]),
+        speed=_speed(match["spd"]),
         ack=ack,
         crc_present=False,
         direction=direction,

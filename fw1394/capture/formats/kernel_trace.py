@@ -15,6 +15,7 @@ import struct
 from dataclasses import dataclass, replace
 
 from fw1394.capture.formats.record import SPEED_UNKNOWN, BusRecord, Direction, RecordType
+from fw1394.errors import PacketError
 from fw1394.packets import LAYOUTS, TCode
 from fw1394.packets.accessors import DESTINATION_ID, SELF_ID_PHY, SOURCE_ID, TCODE
 from fw1394.packets.nodeid import phy_of
@@ -43,8 +44,24 @@ KNOWN |= {"bus_reset_initiate", "bus_reset_schedule", "bus_reset_postpone"}
 KNOWN |= {"async_phy_outbound_complete"}
 
 
-class TraceLineError(ValueError):
+class TraceLineError(PacketError):
     """A firewire tracepoint line whose fields do not make sense."""
+
+
+#: Times are kept as signed 64-bit nanoseconds (about 292 years of uptime).
+MAX_TIME_NS = 2**63 - 1
+
+
+def nanoseconds(seconds: str, fraction: str) -> int:
+    """A kernel timestamp's ``seconds`` and ``fraction`` digits, in nanoseconds.
+
+    Raises :class:`TraceLineError` for one no clock reaches (it would not fit
+    the 64 bits every record's time is held in).
+    """
+    time_ns = int(seconds) * 1_000_000_000 + int(fraction.ljust(9, "0")[:9])
+    if time_ns > MAX_TIME_NS:
+        raise TraceLineError(f"timestamp {seconds}.{fraction} is beyond 64-bit nanoseconds")
+    return time_ns
 
 
 @dataclass
@@ -92,7 +109,7 @@ def parse(line: str, little_endian: bool = True) -> TraceEvent | None:
     name = match["event"]
     fields = dict(FIELD.findall(match["fields"]))
     seconds, _, fraction = match["time"].partition(".")
-    time_ns = int(seconds) * 1_000_000_000 + int(fraction.ljust(9, "0")[:9])
+    time_ns = nanoseconds(seconds, fraction)
     event = TraceEvent(name, time_ns, fields, [])
     generation = _number(fields, "generation") if "generation" in fields else 0
     if name in REQUEST_EVENTS:

@@ -18,6 +18,7 @@ from fw1394.capture.formats import eth1394_udp as udp
 from fw1394.capture.formats import trace_writer as tracefile
 from fw1394.capture.formats.pcap_writer import LINKTYPE_ETHERNET, PcapngWriter, PcapWriter
 from fw1394.capture.formats.record import BusRecord, RecordType
+from fw1394.errors import Error
 from fw1394.packets import AckCode, AsyncPacket, PacketError, decode, name_of, summary
 from fw1394.packets.ack import ack_code
 
@@ -129,7 +130,7 @@ def capture_records(
     return packets
 
 
-class CaptureError(RuntimeError):
+class CaptureError(Error, RuntimeError):
     """A capture cannot start (one line for the user)."""
 
 

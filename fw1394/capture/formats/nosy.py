@@ -15,8 +15,8 @@ import struct
 from collections.abc import Iterable, Iterator
 from typing import BinaryIO
 
-from fw1394.capture.analysis import batch as batches
-from fw1394.capture.analysis.batch import Batch
+from fw1394.capture.formats import batch as batches
+from fw1394.capture.formats.batch import Batch
 from fw1394.capture.formats.containers import Issue
 from fw1394.capture.formats.record import SPEED_UNKNOWN, BusRecord, RecordType
 from fw1394.packets.accessors import SOURCE_ID, readers

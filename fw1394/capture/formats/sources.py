@@ -22,13 +22,14 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
-from fw1394.capture.analysis import batch as batches
-from fw1394.capture.analysis.batch import Batch
+from fw1394.capture.formats import batch as batches
 from fw1394.capture.formats import containers, kernel, nosy
 from fw1394.capture.formats import eth1394_udp as udp
+from fw1394.capture.formats.batch import Batch
 from fw1394.capture.formats.containers import Issue, PacketChunk
 from fw1394.capture.formats.pseudo_header import LINKTYPE_FW1394
 from fw1394.capture.formats.record import BusRecord
+from fw1394.errors import UsageError
 from fw1394.packets.eth1394 import UDP_PORT
 
 FORMATS = ("fw1394", "udp", "nosy", "kernel")
@@ -36,7 +37,7 @@ FORMATS = ("fw1394", "udp", "nosy", "kernel")
 Job = Callable[[], Batch]
 
 
-class SourceError(ValueError):
+class SourceError(UsageError):
     """The input cannot be read at all (one line for the user)."""
 
 

@@ -41,6 +41,7 @@ import numpy as np
 
 from fw1394.capture.formats import pseudo_header as ph
 from fw1394.capture.formats.record import RecordType
+from fw1394.errors import UsageError
 from fw1394.packets import AckCode, ExtendedTCode, RCode, Retry, Speed, TCode
 
 #: Nanoseconds per duration unit.
@@ -133,7 +134,7 @@ PACKET_ONLY |= {name for name in FIELDS if name.startswith(("ph.", "phy.")) or "
 LINK_FIELDS = frozenset({"latency", "attempts", "request_in", "response_in"})
 
 
-class FilterError(ValueError):
+class FilterError(UsageError):
     """A bad display filter: ``position`` is the offending token's offset in the text."""
 
     def __init__(self, message: str, position: int, text: str) -> None:

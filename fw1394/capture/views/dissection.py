@@ -20,13 +20,13 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from fw1394.capture.analysis.batch import Batch
 from fw1394.capture.analysis.columns import Decoded, decode
 from fw1394.capture.analysis.rom_collect import RomCollector
 from fw1394.capture.analysis.rom_decode import report_lines
 from fw1394.capture.analysis.stats import Stats
 from fw1394.capture.analysis.transactions import Pairer, Transactions
 from fw1394.capture.formats import sources
+from fw1394.capture.formats.batch import Batch
 from fw1394.capture.formats.record import RecordType
 from fw1394.capture.views.filter_columns import Links, packet_columns, transaction_columns
 from fw1394.capture.views.packet_view import PACKET_CSV, PacketFormatter

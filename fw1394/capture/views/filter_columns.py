@@ -14,11 +14,10 @@ from typing import Any
 
 import numpy as np
 
-from fw1394.capture.analysis.batch import Batch
 from fw1394.capture.analysis.columns import Decoded, Problem, ack_codes
-from fw1394.capture.analysis.crcvec import quadlets_at
 from fw1394.capture.analysis.transactions import Transactions
 from fw1394.capture.formats import pseudo_header as ph
+from fw1394.capture.formats.batch import Batch, quadlets_at
 from fw1394.capture.formats.record import RecordType
 from fw1394.capture.views.display_filter import FIELDS
 from fw1394.packets import LAYOUTS

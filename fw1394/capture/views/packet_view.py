@@ -9,9 +9,9 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import Any
 
-from fw1394.capture.analysis.batch import Batch, direction_name
 from fw1394.capture.analysis.columns import Decoded, problem_names
 from fw1394.capture.analysis.csr import csr_name
+from fw1394.capture.formats.batch import Batch, direction_name
 from fw1394.capture.formats.record import RecordType
 from fw1394.packets import (
     AckCode,

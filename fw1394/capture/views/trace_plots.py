@@ -10,12 +10,13 @@ from typing import Any
 import numpy as np
 
 from fw1394.capture.analysis.stats import Stats
+from fw1394.errors import Error
 from fw1394.packets import TCode, name_of
 
 INSTALL_HINT = "plots need matplotlib: pip install 'fw1394[plot]' (or pip install matplotlib)"
 
 
-class PlotError(RuntimeError):
+class PlotError(Error, RuntimeError):
     """Plotting is not possible (matplotlib missing, or the file cannot be written)."""
 
 

@@ -13,13 +13,34 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from fw1394.capture.analysis.crcvec import quadlet_view, quadlets_at
 from fw1394.capture.formats import pseudo_header as ph
 from fw1394.capture.formats.containers import Issue, PacketChunk
 from fw1394.capture.formats.record import BusRecord, Direction, RecordType
 from fw1394.packets.ack import ACK_CODE_MASK
 
 _I64 = np.int64
+
+
+def quadlet_view(buf: np.ndarray) -> np.ndarray:
+    """A uint8 buffer seen as big-endian quadlets, without a copy.
+
+    Gather what is needed from it and convert only that (``astype(np.uint32)``):
+    cheaper than converting a whole chunk of which a fraction is read.
+    """
+    words: np.ndarray = buf[: len(buf) & ~3].view(">u4")
+    return words
+
+
+def quadlets_at(buf: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Big-endian quadlets of a uint8 buffer at arbitrary byte offsets, as uint32."""
+    b = buf
+    gathered: np.ndarray = (
+        (b[offsets].astype(np.uint32) << 24)
+        | (b[offsets + 1].astype(np.uint32) << 16)
+        | (b[offsets + 2].astype(np.uint32) << 8)
+        | b[offsets + 3].astype(np.uint32)
+    )
+    return gathered
 
 
 @dataclass

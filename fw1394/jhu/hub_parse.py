@@ -1,0 +1,110 @@
+"""Hub memory as the JHU host reads it: sizes and parsing per firmware family.
+
+The host decides how to parse the data of a broadcast read from the
+firmware of all its boards, never from the data (jhu-eth1394.md §2.10,
+BasePort::ReadAllBoardsBroadcast):
+
+* every board Rev 4-6: 16 slots of 17 quadlets, one per board number, read
+  in full (272 quadlets); the header's bits 31..16 must equal the 16-bit
+  sequence; the block is the 16 quadlets after the header;
+* every board Rev 7: 29-quadlet blocks packed in board order, then one
+  timing quadlet; bits 31..16 must equal the 16-bit sequence;
+* every board Rev 8 on: packed blocks, each as long as its header's bits
+  31..24 say, then one timing quadlet; only the sequence's low byte is
+  compared, and bit 15 flags a mismatch the firmware saw.
+
+In every family the status quadlet must name the board expected there (and,
+before Rev 8, 4 axes); a block whose header or status quadlet is zero ends
+the parse: it and every later board count as not read.
+
+This module is the host side; the boards' side is :mod:`fw1394.boards.qla1.hub`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from fw1394.boards.qla1 import rt_blocks as rt
+from fw1394.errors import PacketError
+
+#: Quadlets per Rev 4-6 slot and per Rev 7 block, header included.
+REV4_6_SLOT = 17
+REV7_BLOCK = 29
+#: Board numbers a Rev 4-6 hub has a slot for.
+BOARD_NUMBERS = 16
+AXES_SHIFT, AXES = 28, 4
+BOARD_ID_SHIFT = 24
+SEQUENCE_MISMATCH = 1 << 15
+
+
+class MixedFirmwareError(PacketError):
+    """The boards' firmware is not one broadcast family: the host refuses broadcast."""
+
+
+@dataclass(frozen=True)
+class HubBoard:
+    """A board of the broadcast round: its ID and firmware revision."""
+
+    board_id: int
+    firmware: int
+
+
+def family(firmwares: Sequence[int]) -> str:
+    """'rev4-6', 'rev7' or 'rev8+' when every firmware is of it; MixedFirmwareError else."""
+    names = {_family(firmware) for firmware in firmwares}
+    if len(names) != 1 or min(firmwares) < 4:
+        raise MixedFirmwareError(
+            f"firmware {sorted(set(firmwares))}: the broadcast read needs every board at "
+            "4-6, every board at 7, or every board at 8 or later"
+        )
+    return names.pop()
+
+
+def _family(firmware: int) -> str:
+    if firmware < 7:
+        return "rev4-6"
+    return "rev7" if firmware == 7 else "rev8+"
+
+
+def hub_read_quadlets(boards: Sequence[HubBoard]) -> int:
+    """How many quadlets the host reads from 0x1000 for ``boards``."""
+    name = family([board.firmware for board in boards])
+    if name == "rev4-6":
+        return BOARD_NUMBERS * REV4_6_SLOT
+    if name == "rev7":
+        return REV7_BLOCK * len(boards) + 1
+    return sum(rt.rt_read_quadlets(board.firmware) + 1 for board in boards) + 1
+
+
+def split_hub(
+    words: Sequence[int], boards: Sequence[HubBoard], sequence: int
+) -> dict[int, list[int] | None]:
+    """Board ID -> its real-time block from hub memory ``words`` (None: not valid)."""
+    ordered = sorted(boards, key=lambda board: board.board_id)
+    name = family([board.firmware for board in ordered])
+    blocks: dict[int, list[int] | None] = {board.board_id: None for board in ordered}
+    position = 0
+    for board in ordered:
+        if name == "rev4-6":
+            position = REV4_6_SLOT * board.board_id
+        header = words[position] if position < len(words) else 0
+        status = words[position + 2] if position + 2 < len(words) else 0
+        if header == 0 or status == 0:
+            break  # "invalid block": nothing after it is read either
+        if name == "rev8+":
+            size = header >> 24
+            good = (
+                header >> 16 & 0xFF == sequence & 0xFF
+                and not header & SEQUENCE_MISMATCH
+                and size == rt.rt_read_quadlets(board.firmware) + 1
+            )
+        else:
+            size = REV4_6_SLOT if name == "rev4-6" else REV7_BLOCK
+            good = header >> 16 == sequence & 0xFFFF and status >> AXES_SHIFT == AXES
+        good = good and status >> BOARD_ID_SHIFT & 0xF == board.board_id
+        chunk = list(words[position + 1 : position + size])
+        if good and len(chunk) == size - 1:
+            blocks[board.board_id] = chunk
+        position += max(size, 1)
+    return blocks
