@@ -15,9 +15,12 @@ range of each side's rate and of the per-pair ratio.
 Firmware 9 (Ethernet-only, multicast) needs a network namespace whose multicast
 route is on lo: run as root and this script makes one per run (``unshare -n``);
 otherwise it falls back to firmware 8 (bridge mode) on an unprivileged port.
+``--firmware 8`` (or any revision before 9) measures bridge mode, in a namespace
+of its own too when run as root.
 
     sudo python bench/jhu_rt.py --boards 1 4 8 --cycles 2000
     sudo python bench/jhu_rt.py --boards 4 8 --rounds 4 --before main
+    sudo python bench/jhu_rt.py --boards 4 8 --firmware 8 --rounds 4 --before main
 """
 
 from __future__ import annotations
@@ -46,8 +49,9 @@ RUN = textwrap.dedent(
     import fw1394
     if not fw1394.__file__.startswith(root):
         sys.exit(f"fw1394 comes from {fw1394.__file__}, not from {root}")
-    if firmware == "9":
+    if port == "1394":  # a namespace of its own: loopback starts down
         subprocess.run(["ip", "link", "set", "lo", "up"], check=True)
+    if firmware == "9":
         subprocess.run(["ip", "route", "add", "224.0.0.0/4", "dev", "lo"], check=True)
     cli = [sys.executable, "-m", "fw1394.cli.main", "jhu"]
     server = subprocess.Popen(cli + ["serve", "--boards", boards, "--firmware", firmware,
@@ -78,11 +82,11 @@ RUN = textwrap.dedent(
 
 
 def run(
-    root: Path, boards: int, cycles: int, protocol: str | None, namespace: bool
+    root: Path, boards: int, cycles: int, protocol: str | None, namespace: bool, firmware: int
 ) -> dict[str, object]:
     """One server and one ``jhu rt`` run of the checkout at ``root``."""
-    firmware, port = ("9", "1394") if namespace else ("8", "21394")
-    command = [sys.executable, "-c", RUN, str(root), str(boards), firmware, port, str(cycles)]
+    port = "1394" if namespace else "21394"
+    command = [sys.executable, "-c", RUN, str(root), str(boards), str(firmware), port, str(cycles)]
     command.append(protocol or "")
     if namespace:
         command = ["unshare", "-n", *command]
@@ -141,8 +145,17 @@ def main() -> int:
     parser.add_argument("--protocol", default="broadcast-read-write")
     parser.add_argument("--rounds", type=positive, default=1, help="runs per board count and side")
     parser.add_argument("--before", metavar="REF", help="git ref run as the baseline, ABAB")
+    parser.add_argument(
+        "--firmware",
+        type=positive,
+        default=None,
+        help="firmware revision (default 9 when run as root, else 8: bridge mode)",
+    )
     args = parser.parse_args()
     namespace = os.geteuid() == 0 and shutil.which("unshare") is not None
+    firmware = args.firmware or (9 if namespace else 8)
+    if firmware >= 9 and not namespace:
+        parser.error(f"--firmware {firmware} multicasts: run as root (a namespace per run)")
     with contextlib.ExitStack() as stack:
         sides = {"after": HERE}
         if args.before:
@@ -155,7 +168,7 @@ def main() -> int:
             order = list(sides) if round_number % 2 == 0 else list(reversed(sides))
             for boards in args.boards:
                 for side in order:
-                    r = run(sides[side], boards, args.cycles, args.protocol, namespace)
+                    r = run(sides[side], boards, args.cycles, args.protocol, namespace, firmware)
                     print_run(side, boards, r)
                     rates.setdefault((side, boards), []).append(number(r, "loop_hz"))
     print("\nloop Hz, range over rounds" + (" (after/before: per round)" if args.before else ""))

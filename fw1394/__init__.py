@@ -32,8 +32,7 @@ from typing import TYPE_CHECKING
 
 from fw1394._lazy import exports
 from fw1394.errors import BusUnreachable, Error, PacketError, Timeout, TransactionError, UsageError
-
-__version__ = "0.1.0"
+from fw1394.version import __version__
 
 # Public name -> the module that defines it; loaded on first use.
 _HOMES = {

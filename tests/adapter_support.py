@@ -28,16 +28,24 @@ NODE_TIMING = ("--heartbeat", "0.1", "--lease", "2.0")
 
 
 @contextmanager
-def adapter_bus(tag: str, nodes: int, board: str = "memory") -> Iterator[AdapterBus]:
-    """A bus of ``nodes`` node processes and its adapter, stopped at the end."""
+def adapter_bus(
+    tag: str, nodes: int, board: str = "memory", node_options: tuple[str, ...] = ()
+) -> Iterator[AdapterBus]:
+    """A bus of ``nodes`` node processes and its adapter, stopped at the end.
+
+    ``node_options`` go to every node (``--loss 0.05``, say); the adapter ignores them."""
     runtime = Path(tempfile.mkdtemp(prefix="fw"))
     config = BusConfig(bus_name(tag))
+    # Every member's runtime files (members/) under the test's root, this process's
+    # hosts and the bus's nodes alike, so that they go with it.
+    outer = os.environ.get("XDG_RUNTIME_DIR")
+    os.environ["XDG_RUNTIME_DIR"] = str(runtime)
     bus = LaunchedBus(
         config,
         nodes,
         board=board,
         root=runtime / "fw1394",
-        node_arguments=(*NODE_TIMING, "--adapter"),
+        node_arguments=(*NODE_TIMING, *node_options, "--adapter"),
     )
     try:
         with bus:
@@ -54,6 +62,10 @@ def adapter_bus(tag: str, nodes: int, board: str = "memory") -> Iterator[Adapter
             yield ready
         assert wait_until_gone(config.name) == [], f"processes of bus {config.name} outlived it"
     finally:
+        if outer is None:
+            os.environ.pop("XDG_RUNTIME_DIR", None)
+        else:
+            os.environ["XDG_RUNTIME_DIR"] = outer
         shutil.rmtree(runtime, ignore_errors=True)
 
 

@@ -10,7 +10,9 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+from fw1394.transport.config import BusConfig
 from fw1394.transport.launch import LaunchedBus
+from fw1394.transport.observe import watch
 from fw1394.transport.procs import process_alive
 
 # The ``launch_bus`` fixture: ``launch_bus(nodes, tag=, board=, node_arguments=)``.
@@ -79,3 +81,13 @@ def wait_until_gone(text: str, seconds: float = 5.0) -> list[int]:
     while (left := processes_mentioning(text)) and time.monotonic() < limit:
         time.sleep(0.05)
     return left
+
+
+def wait_hosts_dropped(config: BusConfig, timeout: float = 30.0) -> None:
+    """Return once the coordinator beacons a member table without hosts.
+
+    A host that has not run (stopped, or blocked in the test) for a lease is
+    dropped; this waits for exactly that instead of sleeping for a guess.
+    """
+    hostless = watch(config, timeout, lambda view: not any(m.host for m in view.members))
+    assert hostless is not None, f"bus {config.name!r} still had a host after {timeout} s"

@@ -121,8 +121,9 @@ def print_members(rows: list[dict[str, Any]], as_json: bool) -> None:
         cells = (row["role"], kind, generation, board, str(row["pid"]), str(row["address"]))
         line: tuple[str, ...] = (str(row["phy_id"]), *cells)
         if counted:
-            dropped = [row.get(k) for k in ("dropped", "replayed")]
-            line += ("-" if None in dropped else str(sum(d or 0 for d in dropped)),)
+            kinds = ("dropped", "replayed", "malformed") if row.get("dropped") is not None else ()
+            counts = [row.get(k) for k in kinds or ("malformed",)]
+            line += ("-" if None in counts else str(sum(c or 0 for c in counts)),)
         table.append(line)
     print_table(table, indent="")
 
@@ -304,12 +305,15 @@ def bus_status(args: argparse.Namespace) -> int:
     if view is None:
         where = f"{len(started)} node processes started here, " if started else ""
         raise CliError(f"bus {config.name!r}: {where}no coordinator heard in {args.timeout} s")
+    if view.sealed:
+        return _status_without_key(config.name, view.generation, args.json)
     members = {m.pid: m for m in read_members(directory)}
     rows = labelled_rows(config, view)
     for row in rows:
         record = members.get(row["pid"])
         row["dropped"] = None if record is None or record.forged is None else record.forged
         row["replayed"] = None if record is None or record.replayed is None else record.replayed
+        row["malformed"] = None if record is None else record.malformed
     security = "keyed" if keyed else "insecure"
     if args.json:
         # One line per member, as ever; the bus's security rides on every line.
@@ -317,7 +321,12 @@ def bus_status(args: argparse.Namespace) -> int:
     else:
         dropped = sum(row["dropped"] or 0 for row in rows)
         replayed = sum(row["replayed"] or 0 for row in rows)
-        counts = f", {dropped} forged and {replayed} replayed frames dropped" if keyed else ""
+        malformed = sum(row["malformed"] or 0 for row in rows)
+        counts = (
+            f", {dropped} forged, {replayed} replayed and {malformed} malformed frames dropped"
+            if keyed
+            else f", {malformed} malformed frames dropped"
+        )
         note = "" if keyed else " (INSECURE: any local process can send frames)"
         print(
             f"bus {config.name!r}: generation {view.generation}, {len(view.members)} members, "
@@ -331,6 +340,22 @@ def bus_status(args: argparse.Namespace) -> int:
     return 0
 
 
+NO_KEY_HERE = "keyed (no key here)"
+
+
+def _status_without_key(name: str, generation: int, as_json: bool) -> int:
+    # Members only from beacons whose MAC verified: without the key, none did.
+    if as_json:
+        print_json_lines([{"generation": generation, "security": NO_KEY_HERE, "members": None}])
+    else:
+        print(
+            f"bus {name!r}: generation {generation}, {NO_KEY_HERE}: members not shown, "
+            "no beacon can be verified without the bus key "
+            "(FW1394_BUS_KEY or FW1394_BUS_KEY_FILE)"
+        )
+    return 0
+
+
 def bus_reset(args: argparse.Namespace) -> int:
     from fw1394.transport.observe import request_reset, watch
 
@@ -339,6 +364,11 @@ def bus_reset(args: argparse.Namespace) -> int:
     before = watch(config, args.timeout)
     if before is None:
         raise CliError(f"bus {config.name!r}: no coordinator heard in {args.timeout} s")
+    if before.sealed:
+        raise CliError(
+            f"bus {config.name!r} is {NO_KEY_HERE}: its members drop a reset request "
+            "without it (FW1394_BUS_KEY or FW1394_BUS_KEY_FILE)"
+        )
     request_reset(config, before.generation)
     after = watch(config, args.timeout, lambda view: view.generation > before.generation)
     if after is None:

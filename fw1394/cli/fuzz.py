@@ -146,6 +146,16 @@ def add_run_options(run: argparse.ArgumentParser) -> None:
         help="N worker processes, seeds derived from --seed; remote targets need {worker} "
         "in TARGET (one node each)",
     )
+    rtl = run.add_argument_group("rtl: targets")
+    rtl.add_argument(
+        "--speed",
+        choices=("S100", "S200", "S400", "mixed"),
+        default="S400",
+        help="speed packets are delivered at (mixed: each packet its own; default S400)",
+    )
+    rtl.add_argument(
+        "--sclk-mhz", type=float, default=49.152, metavar="MHZ", help="SCLK of the design"
+    )
     out = run.add_argument_group("inputs and findings")
     out.add_argument("--corpus", action="append", default=[], metavar="FILE", help="seeds")
     out.add_argument("--findings", default="fuzz-findings", metavar="DIR", help="reproducers")
@@ -191,6 +201,8 @@ def settings_of(args: argparse.Namespace) -> Any:
             history=args.history,
             probe_offset=args.probe_offset,
             pid=args.pid,
+            speed=args.speed,
+            sclk_mhz=args.sclk_mhz,
         )
         check(settings)
     except SettingsError as error:

@@ -16,9 +16,9 @@ import sys
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, NoReturn
 
-import fw1394
 from fw1394.cli.common import fail, reported_write_errors
 from fw1394.errors import Error
+from fw1394.version import __version__
 
 if TYPE_CHECKING:
     from _typeshed import SupportsWrite
@@ -72,7 +72,7 @@ def build_parser() -> argparse.ArgumentParser:
         description=DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("--version", action="version", version=f"fw1394 {fw1394.__version__}")
+    parser.add_argument("--version", action="version", version=f"fw1394 {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     package = importlib.import_module("fw1394.cli")
     for module_info in sorted(pkgutil.iter_modules(package.__path__), key=lambda m: m.name):

@@ -21,7 +21,7 @@ from fw1394.jhu.client import EthUdpClient
 from fw1394.jhu.scan import start
 from fw1394.transport.bus_host import BusError
 from fw1394.transport.bus_port import BusPort
-from fw1394.transport.config import BusConfig
+from fw1394.transport.config import BusConfig, parse_bus_node
 from fw1394.transport.eth1394_addresses import (
     AddressRefusedError,
     Endpoint,
@@ -30,7 +30,6 @@ from fw1394.transport.eth1394_addresses import (
 )
 
 VIRTUAL = "virtual"
-HIGHEST_PHYSICAL_ID = 62
 
 
 class TargetUnavailable(BusUnreachable):
@@ -56,12 +55,8 @@ def parse_target(text: str | None, *, eth1394: bool = False) -> TargetSpec:
     if scheme == "bus" and colon:
         if eth1394:
             raise ValueError("--eth1394 goes with --target udp:HOST[:PORT], not a bus target")
-        name, slash, node = rest.rpartition("/")
-        if not slash or not name or not node.isdigit():
-            raise ValueError(f"{text!r}: a bus target is bus:NAME/NODE, e.g. bus:default/0")
-        if int(node) > HIGHEST_PHYSICAL_ID:
-            raise ValueError(f"{text!r}: node {node} is not a physical ID of a board (0-62)")
-        return TargetSpec("bus", bus=name, node=int(node))
+        name, node = parse_bus_node(rest)
+        return TargetSpec("bus", bus=name, node=node)
     if scheme == "udp" and colon:
         if not eth1394:
             raise ValueError(

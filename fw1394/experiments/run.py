@@ -7,7 +7,6 @@ import platform
 import time
 from dataclasses import dataclass, field
 
-import fw1394
 from fw1394.experiments import baseline
 from fw1394.experiments.baseline import Baseline
 from fw1394.experiments.bench_targets import Target
@@ -28,6 +27,7 @@ from fw1394.experiments.run_settings import Settings
 from fw1394.experiments.summary import summarize
 from fw1394.experiments.timing import SWITCH_WARMUP, cpu_split, pin
 from fw1394.transport.idle import default_idle
+from fw1394.version import __version__
 
 #: Rounds the baseline and the quadlet figures alternate in.
 ROUNDS = 10
@@ -60,7 +60,7 @@ def machine_info(pinned: bool) -> dict[str, object]:
         "cpus": os.cpu_count(),
         "python": platform.python_version(),
         "system": f"{platform.system()} {platform.release()}",
-        "fw1394": fw1394.__version__,
+        "fw1394": __version__,
         "pinned": pinned,
         "load_average_before": [round(v, 2) for v in os.getloadavg()],
         # How every process of the run waited for frames (the echo included).

@@ -14,8 +14,8 @@ import time
 from fw1394.fuzz.target import Observed, TargetCrash, TargetGone, Wire
 from fw1394.fuzz.tunnel import Replies
 from fw1394.fuzz.udptarget import TUNNEL_VISIBILITY
-from fw1394.packets.nodeid import MAX_NODES, node_id
-from fw1394.transport.config import BusConfig, BusNameError
+from fw1394.packets.nodeid import node_id
+from fw1394.transport.config import BusConfig, BusNameError, parse_bus_node
 from fw1394.transport.link import ACK, ASYNC_PACKET, BusRefusedError, LinkLayer
 from fw1394.transport.procs import pid_namespace, process_alive
 from fw1394.transport.station import Station
@@ -69,14 +69,12 @@ class BusTarget:
     @classmethod
     def open(cls, spec: str, *, timeout: float) -> BusTarget:
         """``spec`` is ``NAME/NODE``: a bus name and a physical ID."""
-        name, slash, node = spec.rpartition("/")
-        if not slash or not node.isdigit() or not 0 <= int(node) < MAX_NODES:
-            raise TargetGone(f"bus target {spec!r}: use bus:NAME/NODE, NODE a physical ID 0-62")
         try:
-            config = BusConfig(name or "default")
+            name, node = parse_bus_node(spec)
+            config = BusConfig(name)
         except (BusNameError, ValueError) as error:
             raise TargetGone(str(error)) from None
-        return cls(config, int(node), timeout)
+        return cls(config, node, timeout)
 
     def _join(self) -> MemberInfo:
         """Wait until the bus, with a node at our physical ID, is ready."""

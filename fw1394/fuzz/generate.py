@@ -18,7 +18,14 @@ from typing import Any, TypeVar
 
 from fw1394.fuzz import malform
 from fw1394.fuzz.mutate import havoc
-from fw1394.fuzz.offsets import BOUNDARY_OFFSETS, OFFSET_MASK, OffsetModel, aliased
+from fw1394.fuzz.offsets import (
+    BOUNDARY_OFFSETS,
+    CSR_BASE,
+    GENERIC_INDICES,
+    OFFSET_MASK,
+    OffsetModel,
+    aliased,
+)
 from fw1394.packets import (
     AsyncPacket,
     BlockReadRequest,
@@ -41,6 +48,8 @@ from fw1394.packets.nodeid import node_id as node_id_of
 T = TypeVar("T")
 #: The 1394a S400 limit on a block; longer ones are a classic parser trap.
 MAX_BLOCK = 2048
+#: CSR space and the configuration ROM, where 1394 addresses bytes.
+CSR_SPAN = 0x800
 
 #: Packet kinds and how often they are made: mostly requests, since those are
 #: what a node serves, but every kind the wire can carry turns up.
@@ -166,35 +175,61 @@ class Generator:
 
     # -- fields -------------------------------------------------------------------------
     def destination(self) -> int:
+        """Mostly the target; else any of the other 62 node IDs alike, broadcast, other
+        buses and random IDs (a node that answers for node 5 is as wrong as one
+        that answers for node 1)."""
         rng = self.rng
         node, bus = phy_of(self.node_id), bus_of(self.node_id)
         draw = rng.random()
-        if draw < 0.70:
+        if draw < 0.66:
             return self.node_id
-        if draw < 0.78:
-            others = [n for n in (0, 1, 2, MAX_NODES - 1, node ^ 1) if n != node]
-            return node_id_of(rng.choice(others), bus)
-        if draw < 0.84:
+        if draw < 0.80:
+            other = rng.randrange(BROADCAST_PHY - 1)
+            return node_id_of(other + (other >= node), bus)
+        if draw < 0.86:
             return node_id_of(BROADCAST_PHY, bus)
-        if draw < 0.90:
+        if draw < 0.91:
             buses = [b for b in (0, 1, LOCAL_BUS - 1, LOCAL_BUS) if b != bus]
             return node_id_of(node, rng.choice(buses))
-        if draw < 0.93:
+        if draw < 0.94:
             return node_id_of(BROADCAST_PHY, rng.randrange(LOCAL_BUS))
         return rng.getrandbits(16)
 
     def offset(self) -> int:
+        """Where the target decodes something, in its own addressing: its registers and
+        their neighbours, any quadlet index (a board addressed by index) or any byte
+        offset, misaligned ones included (CSR space), and the boundaries."""
         rng, model = self.rng, self.model
         draw = rng.random()
-        if draw < 0.62:
+        if draw < 0.50:
             return rng.choice(model.registers)
-        if draw < 0.72:
+        if draw < 0.60:
+            return self._neighbour(rng.choice(model.registers))
+        if draw < 0.68:
             return aliased(rng.choice(model.registers), rng.getrandbits(32) | 1)
-        if draw < 0.88:
+        if draw < 0.78:
             return rng.choice(BOUNDARY_OFFSETS)
-        if draw < 0.96:
-            return rng.getrandbits(16) & ~3
+        if draw < 0.94:
+            return self._addressed()
         return rng.getrandbits(48) & OFFSET_MASK
+
+    def _neighbour(self, register: int) -> int:
+        """A register's neighbour: the next indices, or bytes around it (misaligned too)."""
+        rng = self.rng
+        step = rng.choice((-3, -2, -1, 1, 2, 3))
+        if not self.model.quadlet_index:
+            step *= rng.choice((1, 4))
+        return (register + step) & OFFSET_MASK
+
+    def _addressed(self) -> int:
+        rng = self.rng
+        if self.model.quadlet_index:
+            # Every index of the first spaces' registers, then anywhere in the 16 bits.
+            return rng.randrange(GENERIC_INDICES) if rng.random() < 0.6 else rng.getrandbits(16)
+        if rng.random() < 0.4:
+            return CSR_BASE + rng.randrange(CSR_SPAN)  # byte addressed: misaligned too
+        offset = rng.getrandbits(16)
+        return offset & ~3 if rng.random() < 0.6 else offset
 
     def quadlet(self) -> int:
         rng = self.rng

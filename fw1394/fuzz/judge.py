@@ -20,7 +20,7 @@ from fw1394.packets.asynchronous import decode_async
 from fw1394.packets.nodeid import phy_of
 
 #: The oracles, as the findings name them.
-ORACLES = ("silence", "reply", "liveness", "state", "process", "interface")
+ORACLES = ("silence", "reply", "liveness", "state", "process", "interface", "side-effect")
 
 
 @dataclass(frozen=True)

@@ -94,18 +94,32 @@ def _array_sweep(count: int) -> tuple[int, ...]:
     return (*range(min(count, 16)), count // 2, count - 1)
 
 
-def _generic() -> OffsetModel:
-    # A node nothing is known about: small offsets, byte addressed, and the CSRs.
+#: Quadlet indices a node nothing is known about is sent most, when it addresses
+#: registers by index (a JHU board: its 16 board registers and 4 channels' 16).
+GENERIC_INDICES = 0x50
+
+
+def _generic(quadlet_index: bool) -> OffsetModel:
+    """A node nothing is known about, byte addressed or (an Eth1394 board) by index."""
+    if quadlet_index:
+        spots = tuple(range(GENERIC_INDICES))
+        return OffsetModel(spots, spots[:16], probe=0, quadlet_index=True)
     spots = (*range(0, 0x40, 4), 0x100, 0x1000)
     return OffsetModel(spots, spots[:8], probe=0, quadlet_index=False)
 
 
-def offset_model(kind: str | None) -> OffsetModel:
-    """The offsets of board ``kind`` (``None``, unknown or unmapped: a generic node)."""
+def offset_model(kind: str | None, *, quadlet_index: bool = False) -> OffsetModel:
+    """The offsets of board ``kind``; ``None``, unknown or unmapped: a generic node,
+    addressed by quadlet index if ``quadlet_index`` (the Eth1394 boards), else by byte."""
     entry = BOARDS.get(kind or "")
     if entry is None or entry.registers is None:
-        return _generic()
+        return _generic(quadlet_index)
     return from_map(entry.registers)
+
+
+def canonical(offset: int) -> int:
+    """The register ``offset`` reaches on a board that decodes only its low 16 bits."""
+    return offset & ((1 << DECODED_BITS) - 1)
 
 
 def aliased(offset: int, high: int) -> int:

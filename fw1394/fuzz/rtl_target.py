@@ -14,12 +14,16 @@ a dead simulator is started again.
 
 from __future__ import annotations
 
+import zlib
 from pathlib import Path
 
 from fw1394.fuzz.target import Observation, Observed, TargetCrash, TargetGone, Visibility, Wire
 from fw1394.rtl.defects import RTL_DEFECTS, define
-from fw1394.rtl.portmap import PortMap, PortMapError, load, split_spec
+from fw1394.rtl.portmap import SPEED_NAMES, PortMap, PortMapError, load, split_spec
 from fw1394.rtl.simulation import Simulation, SimulationError
+
+#: Campaign speeds: one for every packet, or each packet its own.
+SPEEDS = (*SPEED_NAMES, "mixed")
 
 
 class NeverAcks(PortMapError):
@@ -40,8 +44,9 @@ class RtlTarget:
         node_id: int,
         board_id: int = 0,
         defects: frozenset[str] = frozenset(),
-        timeout: float = 30.0,
         waves: Path | None = None,
+        speed: str = "S400",
+        sclk_mhz: float = 49.152,
     ) -> None:
         self.portmap = portmap
         self.node_id = node_id
@@ -52,9 +57,14 @@ class RtlTarget:
             "defines": tuple(define(name) for name in sorted(defects & RTL_DEFECTS.keys())),
             "board_defects": tuple(sorted(defects - RTL_DEFECTS.keys())),
             "waves": waves,
-            "timeout": max(timeout, 10.0),
+            "sclk_mhz": sclk_mhz,
         }
+        if speed not in SPEEDS:
+            raise PortMapError(f"speed {speed!r}: use {', '.join(SPEEDS)}")
+        self.speed = speed
         self._interface: list[str] = []
+        self._effects: list[list[tuple[str, int, int | None]]] = []
+        self._own = frozenset(portmap.own)
         self.sim = self._start()
 
     def _start(self) -> Simulation:
@@ -74,19 +84,40 @@ class RtlTarget:
 
     def exchange(self, batch: list[Wire], now: float) -> list[Observed]:
         try:
-            answer = self.sim.exchange([wire.raw for wire in batch], now)
+            raws = [wire.raw for wire in batch]
+            answer = self.sim.exchange(raws, now, speeds=[self._speed_of(raw) for raw in raws])
         except SimulationError as error:
             raise TargetCrash(f"simulator-gone: {error}") from None
         self._interface += answer["violations"]
+        self._effects = [
+            [(kind, address, data) for kind, address, data in effects if address not in self._own]
+            for effects in answer.get("effects", [[] for _ in batch])
+        ]
         return [
             Observation(ack, None if response is None else bytes.fromhex(response), tenure)
             for ack, response, tenure in answer["replies"]
         ]
 
+    def _speed_of(self, raw: bytes) -> int:
+        if self.speed != "mixed":
+            return SPEED_NAMES.index(self.speed)
+        # The same packet always goes at the same speed, so a replay sees what the
+        # campaign saw.
+        return zlib.crc32(raw) % len(SPEED_NAMES)
+
     def interface_violations(self) -> list[str]:
         """Interface rules broken since the last call (one line each, signature first)."""
         found, self._interface = self._interface, []
         return found
+
+    def side_effects(self) -> list[list[tuple[str, int, int | None]]]:
+        """The register accesses (kind, index, data) each packet of the last batch
+        caused, the design's own registers left out."""
+        return self._effects
+
+    def owned(self) -> frozenset[int]:
+        """Registers (quadlet indices) the design writes by itself."""
+        return self._own
 
     def problem(self) -> str | None:
         if not self.sim.alive():
@@ -108,7 +139,13 @@ class RtlTarget:
 
 
 def open_rtl(
-    spec: str, *, node_id: int, board_id: int, defects: frozenset[str], timeout: float
+    spec: str,
+    *,
+    node_id: int,
+    board_id: int,
+    defects: frozenset[str],
+    speed: str = "S400",
+    sclk_mhz: float = 49.152,
 ) -> RtlTarget:
     """The target ``rtl:SPEC`` names (see :func:`split_spec`)."""
     portmap, waves = split_spec(spec)
@@ -117,6 +154,7 @@ def open_rtl(
         node_id=node_id,
         board_id=board_id,
         defects=defects,
-        timeout=timeout,
         waves=waves,
+        speed=speed,
+        sclk_mhz=sclk_mhz,
     )

@@ -14,6 +14,9 @@ from fw1394.packets.nodeid import node_id
 #: (``quick`` skips checks a contract is about).
 FALLBACK_POLICY = "thesis"
 LOCAL_NODE_0 = node_id(0)
+#: Speeds an rtl: campaign delivers packets at.
+RTL_SPEEDS = ("S100", "S200", "S400", "mixed")
+RTL_DEFAULTS = {"speed": "S400", "sclk_mhz": 49.152}
 
 
 def default_policy(kind: str | None) -> str:
@@ -72,6 +75,10 @@ class Settings:
     probe_offset: int | None = None
     #: udp: the pid of the node's process, to watch it stays alive.
     pid: int | None = None
+    #: rtl: the speed packets are delivered at (S100, S200, S400, or mixed: each its own).
+    speed: str = "S400"
+    #: rtl: the SCLK frequency the design runs at, MHz.
+    sclk_mhz: float = 49.152
 
     def __post_init__(self) -> None:
         self._check_types()
@@ -95,6 +102,10 @@ class Settings:
                 raise SettingsError(f"{name.replace('_', '-')} must be positive")
         if not 0 <= self.node_id <= 0xFFFF:
             raise SettingsError(f"node ID {self.node_id:#x} does not fit 16 bits")
+        if self.speed not in RTL_SPEEDS:
+            raise SettingsError(f"speed {self.speed!r}: use {', '.join(RTL_SPEEDS)}")
+        if not 1 <= self.sclk_mhz <= 1000:
+            raise SettingsError("sclk-mhz must be between 1 and 1000")
         if self.probe_offset is not None and not 0 <= self.probe_offset < 1 << 48:
             raise SettingsError(f"probe offset {self.probe_offset:#x} does not fit 48 bits")
 
@@ -136,9 +147,9 @@ class Settings:
 
 
 _TYPES: dict[str, type] = {
-    **{name: str for name in ("target", "contract", "model", "policy")},
+    **{name: str for name in ("target", "contract", "model", "policy", "speed")},
     **{name: tuple for name in ("defects", "corpus")},
-    **{name: float for name in ("duration", "timeout", "dead_after")},
+    **{name: float for name in ("duration", "timeout", "dead_after", "sclk_mhz")},
     "eth1394": bool,
     **{
         name: int

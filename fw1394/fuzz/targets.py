@@ -18,7 +18,7 @@ from fw1394.fuzz.clock import SimulatedClock, WallClock
 from fw1394.fuzz.contract import CONTRACTS, contract_path
 from fw1394.fuzz.offsets import OffsetModel, offset_model
 from fw1394.fuzz.reference import Reference
-from fw1394.fuzz.settings import Settings, SettingsError, default_policy
+from fw1394.fuzz.settings import RTL_DEFAULTS, Settings, SettingsError, default_policy
 from fw1394.fuzz.target import Target
 from fw1394.fuzz.trial import Trial
 
@@ -51,6 +51,8 @@ def check(settings: Settings) -> None:
     for kind in (rest if scheme == "inproc" else None, settings.model):
         if kind is not None and kind not in BOARDS:
             raise SettingsError(f"unknown board kind {kind!r}; known kinds: {', '.join(kinds())}")
+    if scheme != "rtl" and any(getattr(settings, k) != v for k, v in RTL_DEFAULTS.items()):
+        raise SettingsError("--speed and --sclk-mhz are for rtl: targets")
     if scheme == "inproc":
         if settings.model not in (None, rest):
             raise SettingsError("--model must be the target's own kind in-process")
@@ -95,7 +97,8 @@ def open_target(settings: Settings) -> Target:
                 node_id=settings.node_id,
                 board_id=settings.board_id,
                 defects=frozenset(settings.defects),
-                timeout=settings.timeout,
+                speed=settings.speed,
+                sclk_mhz=settings.sclk_mhz,
             )
         except ValueError as error:  # the port map, or a design that never acks
             raise SettingsError(str(error)) from None
@@ -123,7 +126,7 @@ def reference_for(settings: Settings, target: Target) -> Reference:
 
 
 def offsets_for(settings: Settings) -> OffsetModel:
-    model = offset_model(target_kind(settings))
+    model = offset_model(target_kind(settings), quadlet_index=settings.eth1394)
     if settings.probe_offset is None:
         return model
     return OffsetModel(model.registers, model.sweep, settings.probe_offset, model.quadlet_index)

@@ -17,6 +17,7 @@ from fw1394.engine import Reply
 from fw1394.engine.responder import decode_received
 from fw1394.fuzz.contract import ack_name, family, silence_reason
 from fw1394.fuzz.judge import Violation, describe, difference, is_silent, visible
+from fw1394.fuzz.learned import LearnedRegisters
 from fw1394.fuzz.offsets import OffsetModel
 from fw1394.fuzz.reference import Certainty, Reference
 from fw1394.fuzz.target import Observed, Target, TargetCrash, Wire
@@ -27,17 +28,38 @@ from fw1394.packets import (
     BlockReadRequest,
     BlockWriteRequest,
     QuadletReadRequest,
+    QuadletWriteRequest,
     Request,
 )
 from fw1394.packets.fast import encode_packet
+from fw1394.packets.nodeid import BROADCAST_PHY
 
 #: Bytes a read-back of a block write asks for at most.
 READBACK_LIMIT = 512
 _ACCEPTED = frozenset({AckCode.ack_complete, AckCode.ack_pending})
 _STOPPING = frozenset({"liveness", "process"})
+#: Why the contract drops a packet without a trace: such a packet must not touch a
+#: register either (the ``side-effect`` oracle).
+_DROPPED = frozenset(
+    {
+        "undecodable",
+        "not-a-request",
+        "other-bus",
+        "other-node",
+        "unsupported-tcode",
+        "bad-header-crc",
+        "bad-length",
+        "bad-data-crc",
+    }
+)
+#: Register accesses named in a side-effect finding, at most.
+_EFFECTS_NAMED = 4
 #: Writes remembered to name in a sweep finding, and named at most.
 _WRITES_KEPT = 64
 _WRITES_NAMED = 4
+#: Learned registers read, taught and read back per batch: a batch's labels must
+#: differ (a transport without acks tells replies apart by label alone).
+_TAUGHT_PER_BATCH = 8
 
 
 class Entry(NamedTuple):
@@ -98,6 +120,14 @@ class Trial:
         self._write_count = 0
         self._read_after: dict[int, int] = {}
         self._changed: set[int] = set()
+        #: Without a model of the board, the data oracle that learns from its answers.
+        self.learned = LearnedRegisters(model.quadlet_index) if reference.kind is None else None
+        self._swept_after = 0  # the write count when the last sweep began
+        self._other = 0  # the last other node read, as an offset from the target's
+        # Registers the node writes by itself (rtl: port maps may name them): what a
+        # read of them returns is the node's business, not the model's.
+        owned = getattr(target, "owned", None)
+        self._owned: frozenset[int] = owned() if owned is not None else frozenset()
 
     # -- driving ------------------------------------------------------------------------
     def case(self, raw: bytes, label: str = "") -> list[Violation]:
@@ -119,11 +149,33 @@ class Trial:
         return violations
 
     def sweep(self) -> list[Violation]:
-        """Read every register of the sweep list and compare with the model."""
+        """Read every register of the sweep list and compare with the model; read each
+        learned register, and teach it a fresh value (:mod:`fw1394.fuzz.learned`)."""
         batch = [_Sent("sweep", self._read(offset), "") for offset in self.model.sweep]
         if batch and self.target.needs_fence:
             batch.append(_Sent("probe", self._probe(), ""))
-        return self._run(batch)
+        # Changes seen by the next sweep name the writes from here on, markers included.
+        self._swept_after = self._write_count
+        found = self._run(batch)
+        if self.learned is None or self.broken:
+            return found
+        # One other node ID per sweep, all 62 in turn: a node answering for another
+        # is a silence finding like any case's.
+        found += self._run([_Sent("case", self._read_as(self._next_other(), self.model.probe), "")])
+        registers = self.learned.registers
+        for start in range(0, len(registers), _TAUGHT_PER_BATCH):
+            if self.broken:
+                break
+            batch = []
+            for register in registers[start : start + _TAUGHT_PER_BATCH]:
+                marker = self.learned.marker(register)
+                batch += [
+                    _Sent("sweep", self._read(register), ""),
+                    _Sent("learn", self._write(register, marker), ""),
+                    _Sent("readback", self._read(register), ""),
+                ]
+            found += self._run(batch)
+        return found
 
     def replay(self, entries: Iterable[Entry], *, keep_times: bool = True) -> list[Violation]:
         """Send recorded entries again, one batch each, judged by their roles.
@@ -148,6 +200,8 @@ class Trial:
         self.stream.clear()
         self._sweep_ok.clear()
         self._changed.clear()
+        if self.learned is not None:
+            self.learned.reset()
         self.broken = False
 
     # -- one batch ----------------------------------------------------------------------
@@ -157,6 +211,11 @@ class Trial:
         expected = [
             expect(sent.wire.packet, sent.wire.damaged, now, raw=sent.wire.raw) for sent in batch
         ]
+        if self._owned:
+            expected = [
+                (reply, Certainty.header) if self._reads_owned(sent.wire.packet) else (reply, c)
+                for sent, (reply, c) in zip(batch, expected, strict=True)
+            ]
         if self.target.needs_fence and batch:
             visibility = self.target.visibility
             if is_silent(visible(expected[-1][0], visibility)):
@@ -181,6 +240,7 @@ class Trial:
         if any(sent.role == "probe" for sent in batch):
             found += self._process_check()
         found += self._interface_check()
+        found += self._effect_check(batch, [reply for reply, _ in expected])
         if any(v.oracle in _STOPPING for v in found):
             self.broken = True
         return found
@@ -203,12 +263,57 @@ class Trial:
             for line in take()
         ]
 
+    def _reads_owned(self, packet: AsyncPacket | None) -> bool:
+        if not isinstance(packet, (QuadletReadRequest, BlockReadRequest)):
+            return False
+        quadlets = 1
+        if isinstance(packet, BlockReadRequest):
+            quadlets = max(1, (packet.data_length + 3) // 4)
+        first = packet.offset & 0xFFFF if self.model.quadlet_index else packet.offset >> 2
+        return any(first <= index < first + quadlets for index in self._owned)
+
+    def _effect_check(self, batch: list[_Sent], expected: list[Reply]) -> list[Violation]:
+        # Targets that watch the design's register strobes (rtl:) report the accesses
+        # each packet caused: one the contract drops must cause none.
+        take = getattr(self.target, "side_effects", None)
+        if take is None:
+            return []
+        found = []
+        node_id, policy = self.reference.node_id, self.reference.policy
+        for sent, reply, effects in zip(batch, expected, take(), strict=False):
+            if not is_silent(reply):
+                continue
+            packet = sent.wire.packet
+            reason = silence_reason(packet, sent.wire.damaged, node_id, policy)
+            if reason not in _DROPPED:
+                continue
+            self.checks["side-effect"] += 1
+            if not effects:
+                continue
+            what = "write" if any(kind == "write" for kind, _, _ in effects) else "read"
+            accesses = ", ".join(_access(*effect) for effect in effects[:_EFFECTS_NAMED])
+            if len(effects) > _EFFECTS_NAMED:
+                accesses += f" and {len(effects) - _EFFECTS_NAMED} more"
+            found.append(
+                Violation(
+                    "side-effect",
+                    f"{reason}:{family(packet)}:{what}",
+                    f"no register access ({reason}: dropped)",
+                    accesses,
+                )
+            )
+        return found
+
     # -- oracles ------------------------------------------------------------------------
     def _judge(
         self, sent: _Sent, reply: Reply, certainty: Certainty, seen: Observed
     ) -> Violation | None:
         if sent.role == "case":
             return self._judge_case(sent.wire, reply, certainty, seen)
+        if self.learned is not None:
+            learned = self._judge_learned(sent, seen)
+            if learned is not None:
+                return learned
         shown = visible(reply, self.target.visibility)
         if not is_silent(shown):
             self.checks["liveness"] += 1
@@ -231,6 +336,25 @@ class Trial:
             f"read-back{where}: {describe(seen)}",
         )
 
+    def _judge_learned(self, sent: _Sent, seen: Observed) -> Violation | None:
+        learned, packet = self.learned, sent.wire.packet
+        if learned is None or packet is None:
+            return None
+        offset = getattr(packet, "offset", 0)
+        if sent.role == "learn" and isinstance(packet, QuadletWriteRequest):
+            learned.taught(offset, packet.quadlet_data)
+            # A marker is a write like any other: one may change another register.
+            self._write_count += 1
+            self._writes.append((self._write_count, offset))
+            return None
+        if sent.role == "readback":
+            self.checks["state"] += 1
+            return learned.read_back(offset, seen.response)
+        if sent.role == "sweep":
+            since = [o for n, o in reversed(self._writes) if n > self._swept_after]
+            return learned.swept(offset, seen.response, _after_writes(since))
+        return None
+
     def _judge_case(
         self, wire: Wire, reply: Reply, certainty: Certainty, seen: Observed
     ) -> Violation | None:
@@ -238,7 +362,11 @@ class Trial:
         kind = family(packet)
         if kind in ("write", "lock"):
             self._write_status = _status(reply, packet, wire.damaged, self.reference)
-            if self._write_status == "accepted":
+            if self.learned is not None and packet is not None:
+                self.learned.wrote(packet, accepted=self._write_status == "accepted")
+            # Every write names itself in a learned register's change (one to another
+            # node too: a node may take it for its own).
+            if self._write_status == "accepted" or self.learned is not None:
                 self._write_count += 1
                 self._writes.append((self._write_count, getattr(packet, "offset", 0)))
         if is_silent(reply):
@@ -308,6 +436,31 @@ class Trial:
             )
         return Wire(encode_packet(packet), packet, False)
 
+    def _next_other(self) -> int:
+        """The next node ID but the target's (rotating over the 62 others)."""
+        node = self.reference.node_id
+        self._other = self._other % (BROADCAST_PHY - 1) + 1
+        return (node & ~0x3F) | ((node & 0x3F) + self._other) % BROADCAST_PHY
+
+    def _read_as(self, destination: int, offset: int) -> Wire:
+        packet = QuadletReadRequest(
+            destination_id=destination,
+            tlabel=self._next_tlabel(),
+            source_id=self.source_id,
+            offset=offset,
+        )
+        return Wire(encode_packet(packet), packet, False)
+
+    def _write(self, offset: int, value: int) -> Wire:
+        packet = QuadletWriteRequest(
+            destination_id=self.reference.node_id,
+            tlabel=self._next_tlabel(),
+            source_id=self.source_id,
+            offset=offset,
+            quadlet_data=value,
+        )
+        return Wire(encode_packet(packet), packet, False)
+
     def _probe(self) -> Wire:
         # The same few packets over and over: made once per label.
         key = (self.reference.node_id, self._next_tlabel())
@@ -360,3 +513,7 @@ def _after_writes(offsets: list[int]) -> str:
 def _offset_text(packet: AsyncPacket | None) -> str:
     offset = getattr(packet, "offset", None)
     return "" if offset is None else f" at {offset:#x}"
+
+
+def _access(kind: str, index: int, data: int | None) -> str:
+    return f"register {index:#x} read" if data is None else f"register {index:#x} <- {data:#010x}"

@@ -26,7 +26,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from fw1394.boards.qla1 import rt_blocks as rt
-from fw1394.errors import PacketError
+from fw1394.errors import UsageError
 
 #: Quadlets per Rev 4-6 slot and per Rev 7 block, header included.
 REV4_6_SLOT = 17
@@ -38,7 +38,7 @@ BOARD_ID_SHIFT = 24
 SEQUENCE_MISMATCH = 1 << 15
 
 
-class MixedFirmwareError(PacketError):
+class MixedFirmwareError(UsageError):
     """The boards' firmware is not one broadcast family: the host refuses broadcast."""
 
 

@@ -56,14 +56,19 @@ class Command:
 
 
 def write_block(board_id: int, firmware: int, command: Command) -> list[int]:
-    """One board's real-time write block (Rev 1-6: the DAC words only)."""
+    """One board's real-time write block (Rev 1-6: the DAC words only).
+
+    Before Rev 8 every DAC command carries the board id in bits 27..24, as the
+    library's write buffer does: that is how a board finds its own commands in
+    a broadcast write.
+    """
     if firmware >= 8:
         return [board_id << 8 | CHANNELS + 2, *command.dac, command.control]
+    tagged = [value & ~(0xF << DAC_BOARD_ID_SHIFT) | board_id << DAC_BOARD_ID_SHIFT
+              for value in command.dac]  # fmt: skip
     if firmware == 7:
-        tagged = [value & ~(0xF << DAC_BOARD_ID_SHIFT) | board_id << DAC_BOARD_ID_SHIFT
-                  for value in command.dac]  # fmt: skip
         return [*tagged, command.control]
-    return list(command.dac)
+    return tagged
 
 
 @dataclass
@@ -139,7 +144,12 @@ class RealTimeLoop:
                     words += idle
                 else:
                     words += write_block(board.board_id, board.firmware, command)
-            return self.client.write_block_node(BROADCAST_NODE, 0, pack(words))
+            ok = self.client.write_block_node(BROADCAST_NODE, 0, pack(words))
+            for board in self.boards:
+                if board.firmware < 7:
+                    command = commands.get(board.board_id, Command())
+                    ok &= self._old_control(board.node, command, after_broadcast=True)
+            return ok
         ok = True
         for board in self.boards:
             ok &= self._write_one(board.node, board.board_id, board.firmware, commands)
@@ -153,10 +163,18 @@ class RealTimeLoop:
         ok = self.client.write_block_node(node, 0, pack(words))
         if firmware >= 7:
             return ok
-        # Rev 1-6: control as its own write, and a no-op write to feed the watchdog.
+        return ok & self._old_control(node, command, after_broadcast=False)
+
+    def _old_control(self, node: int, command: Command, *, after_broadcast: bool) -> bool:
+        """Rev 1-6: the control quadlet as its own write (if not zero), and a no-op write
+        to feed the watchdog when no DAC command has its valid bit; after a broadcast
+        write the library skips the no-op if it wrote the control quadlet."""
+        ok = True
         if command.control:
             ok &= self.client.write_quadlet_node(node, BoardRegister.STATUS, command.control)
-        if not any(value & DAC_VALID for value in command.dac):
+        if not any(value & DAC_VALID for value in command.dac) and not (
+            after_broadcast and command.control
+        ):
             ok &= self.client.write_quadlet_node(node, BoardRegister.STATUS, 0)
         return ok
 

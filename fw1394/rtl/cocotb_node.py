@@ -20,12 +20,12 @@ from cocotb.clock import Clock
 from fw1394.boards.registry import make_board
 from fw1394.packets import QuadletReadRequest
 from fw1394.packets.asynchronous import encode_async
-from fw1394.rtl.phy import Phy
+from fw1394.rtl.phy import S400, Limits, Phy
 from fw1394.rtl.portmap import load
 from fw1394.rtl.regbus import RegisterServer
 
-#: Half of the 49.152 MHz SCLK period, in picoseconds (rounded).
-HALF_PERIOD_PS = 10_172
+#: SCLK of a 1394a PHY, MHz (a port map or campaign may run the design at another).
+SCLK_MHZ = 49.152
 RESET_CYCLES = 4
 SETTLE_CYCLES = 48
 CONFIG_VARIABLE = "FW1394_RTL_CONFIG"
@@ -54,9 +54,15 @@ class Node:
         phy = self.phy = Phy(
             self.dut,
             physical_id=config["physical_id"],
-            ack_gap=self.portmap.ack_gap,
+            limits=Limits(
+                ack_gap=self.portmap.ack_gap,
+                busy=self.portmap.busy_cycles,
+                own=self.portmap.own_cycles,
+                answer=self.portmap.answer_cycles,
+            ),
             registers=server,
             poll_reads="rd" not in self.portmap.registers,
+            release_visible=self.portmap.style != "split-flag",
         )
         self.dut.rst.value = 1
         await phy.idle(RESET_CYCLES)
@@ -90,15 +96,17 @@ class Node:
             await phy.service()
 
     async def exchange(
-        self, now: float, packets: list[str], interrupting: int = 0
+        self, now: float, packets: list[str], interrupting: int = 0, speeds: list[int] | None = None
     ) -> dict[str, Any]:
         phy = self.phy
         assert phy is not None
         if phy.server is not None:
             phy.server.set_time(now)
         replies = []
-        for text in packets:
-            reply = await phy.exchange(bytes.fromhex(text), interrupting=interrupting)
+        effects = []
+        for k, text in enumerate(packets):
+            speed = speeds[k] if speeds else S400
+            reply = await phy.exchange(bytes.fromhex(text), interrupting=interrupting, speed=speed)
             replies.append(
                 [
                     reply.ack,
@@ -106,15 +114,22 @@ class Node:
                     reply.concatenated,
                 ]
             )
+            effects.append([list(effect) for effect in reply.effects])
         violations, phy.violations = phy.violations, []
-        return {"replies": replies, "violations": violations, "cycles": phy.cycles}
+        return {
+            "replies": replies,
+            "effects": effects,
+            "violations": violations,
+            "cycles": phy.cycles,
+        }
 
 
 @cocotb.test()
 async def serve(dut: Any) -> None:
     """Answer the parent's requests until it says stop or goes away."""
     config = json.loads(os.environ[CONFIG_VARIABLE])
-    Clock(dut.sclk, 2 * HALF_PERIOD_PS, unit="ps").start()
+    half_period = round(1e6 / (2 * config.get("sclk_mhz", SCLK_MHZ)))
+    Clock(dut.sclk, 2 * half_period, unit="ps").start()
     sock = socket.create_connection(("127.0.0.1", config["port"]))
     stream = sock.makefile("rwb")
     node = Node(dut, config)
@@ -130,7 +145,10 @@ async def serve(dut: Any) -> None:
         if op == "exchange":
             send(
                 await node.exchange(
-                    request["now"], request["packets"], request.get("interrupting", 0)
+                    request["now"],
+                    request["packets"],
+                    request.get("interrupting", 0),
+                    request.get("speeds"),
                 )
             )
         elif op == "bus_reset":

@@ -26,6 +26,8 @@ from fw1394.rtl.portmap import (
     MON_BLK_WR,
     MON_BUSY,
     MON_CTL,
+    MON_FX_RD,
+    MON_FX_WR,
     MON_LREQ,
     MON_OE,
     MON_RD,
@@ -35,19 +37,39 @@ from fw1394.rtl.regbus import RegisterServer
 
 IDLE, STATUS, RECEIVE, GRANT = 0b00, 0b01, 0b10, 0b11
 HOLD, TRANSMIT = 0b01, 0b10
-#: S400 speed code, D0 first.
-SPEED_S400 = 0x50
+#: Speeds by index (as ImmReq carries them, shifted right once): S100, S200, S400.
+S100, S200, S400 = 0, 1, 2
+#: The speed code the PHY puts on D after data-on, D0 first.
+SPEED_CODES = (0x00, 0x40, 0x50)
+#: Bits carried per SCLK cycle at each speed (D0-D1, D0-D3, D0-D7).
+SPEED_BITS = (2, 4, 8)
 #: Hold may last this many cycles at most (1394a).
 MAX_HOLD = 47
+#: Idle cycles a link may assert after a grant without Transmit (a null packet).
+MAX_NULL_IDLE = 3
+#: Cycles the PHY waits after a concatenation request before it grants again (the
+#: minimum packet separation, data-end to the next data-prefix).
+PACKET_SEPARATION = 8
+#: Packets one concatenation chain may hold (ack, response, and then some).
+MAX_CONCATENATED = 4
 #: Request types on LREQ, and the bits after the type (the stop bit included).
 REQUEST_BITS = {0: 4, 1: 4, 2: 4, 3: 4, 4: 5, 5: 13, 6: 2}
 BUS_REQUESTS = {0: "ImmReq", 1: "IsoReq", 2: "PriReq", 3: "FairReq"}
 #: A link granted the bus must start driving within this many cycles.
 GRANT_TIMEOUT = 8
-#: Cycles a link may stay busy after its answer (a 2 KiB write commit and more).
-BUSY_LIMIT = 20_000
-#: Cycles an owned bus may stay in use (the longest packet and then some).
-OWN_LIMIT = 80_000
+
+
+class Limits(NamedTuple):
+    """How long the PHY waits, in SCLK cycles (a port map's [phy] table)."""
+
+    #: From the end of a received packet to the ack's first byte, at most.
+    ack_gap: int = 32
+    #: A link may stay busy after its answer (a 2 KiB write commit and more).
+    busy: int = 20_000
+    #: An owned interface may stay in use (the longest packet and then some).
+    own: int = 80_000
+    #: One packet, from its delivery to the end of its answer, in all.
+    answer: int = 200_000
 
 
 class Request(NamedTuple):
@@ -66,10 +88,29 @@ class Capture(NamedTuple):
     delay: int
 
 
+class _Tenure(NamedTuple):
+    packets: list[bytes]
+    #: Cycles from the Grant to the first transmitted symbol (None: nothing sent).
+    first_byte: int | None
+    #: The link asked for the next packet to be concatenated (Hold, then Idle).
+    concatenate: bool
+    cycles: int
+
+
+class Effect(NamedTuple):
+    """A register access the design made: ``write`` or ``read``, its index and data."""
+
+    kind: str
+    address: int
+    data: int | None
+
+
 class Reply(NamedTuple):
     ack: int | None
     response: bytes | None
     concatenated: bool
+    #: The register accesses made while the packet was received and answered.
+    effects: list[Effect] = []
 
 
 class Phy:
@@ -80,14 +121,18 @@ class Phy:
         dut: Any,
         *,
         physical_id: int,
-        ack_gap: int,
+        limits: Limits,
         registers: RegisterServer | None,
         poll_reads: bool = False,
+        release_visible: bool = True,
     ) -> None:
         self.dut = dut
         self.physical_id = physical_id
-        self.ack_gap = ack_gap
+        self.limits = limits
+        self.ack_gap = limits.ack_gap
         self.server = registers
+        #: The pins show when the link lets go (not so with a PHY-drives flag).
+        self.release_visible = release_visible
         #: PHY registers 0-15 (1394a base page), as a link reads them with RdReg.
         self.registers = [0] * 16
         self.registers[2] = 0xE2  # extended, two ports
@@ -96,6 +141,8 @@ class Phy:
         self.violations: list[str] = []
         self.requests: deque[Request] = deque()
         self.cycles = 0
+        #: Register accesses since the last packet came.
+        self.effects: list[Effect] = []
         self._drive = -1
         self._lreq_bits: list[int] | None = None
         self._lreq_need = 0
@@ -130,9 +177,18 @@ class Phy:
         self._lreq(mon >> MON_LREQ & 1)
         if mon >> MON_RD & 0xF and self.server is not None:
             self._serve(mon)
+        if mon >> MON_FX_WR & 3:
+            self._effect(mon)
         if self.poll_reads:
             self._poll()
         return mon
+
+    def _effect(self, mon: int) -> None:
+        address = _unsigned(self.dut.fx_addr.value)
+        if mon >> MON_FX_WR & 1:
+            self.effects.append(Effect("write", address, _unsigned(self.dut.fx_wdata.value)))
+        if mon >> MON_FX_RD & 1:
+            self.effects.append(Effect("read", address, None))
 
     def _poll(self) -> None:
         # Values change only at a new batch (the board's time) or with a write,
@@ -228,11 +284,13 @@ class Phy:
             + [value >> (7 - i) & 1 for i in range(8)]
         )
 
-    async def receive(self, raw: bytes, *, interrupting: int = 0) -> None:
-        """Deliver a packet as the PHY does: data-on, speed code, bytes, then Idle.
+    async def receive(self, raw: bytes, *, interrupting: int = 0, speed: int = S400) -> None:
+        """Deliver a packet as the PHY does: data-on, speed code, bits, then Idle.
 
-        ``interrupting``: first start a status transfer of register 0 and cut it
-        after that many cycles, as a PHY does when a packet arrives meanwhile.
+        ``speed``: S100 sends two bits a cycle on D0-D1, S200 four on D0-D3, S400
+        a byte on D0-D7. ``interrupting``: first start a status transfer of
+        register 0 and cut it after that many cycles, as a PHY does when a packet
+        arrives meanwhile.
         """
         step = self.step
         if interrupting:
@@ -243,9 +301,17 @@ class Phy:
         await step(True, RECEIVE, 0xFF)
         await step(True, RECEIVE, 0xFF)
         if raw:
-            await step(True, RECEIVE, SPEED_S400)
-            for byte in raw:
-                await step(True, RECEIVE, byte)
+            await step(True, RECEIVE, SPEED_CODES[speed])
+            if speed == S400:
+                for byte in raw:
+                    await step(True, RECEIVE, byte)
+            else:
+                width = SPEED_BITS[speed]
+                mask = (1 << width) - 1
+                for byte in raw:
+                    for shift in range(8 - width, -1, -width):
+                        # The symbol on the top lines (D0 first), the rest low.
+                        await step(True, RECEIVE, (byte >> shift & mask) << (8 - width))
         await step()
 
     async def bus_reset(self) -> None:
@@ -260,7 +326,7 @@ class Phy:
         while self.requests:
             request = self.requests.popleft()
             if request.kind in BUS_REQUESTS:
-                captures.append(await self.grant(0))
+                captures.append(await self.grant(0, speed=_speed_of(request)))
             elif request.kind == 4:
                 await self.register_status(request.payload & 0xF)
             elif request.kind == 5:
@@ -272,71 +338,152 @@ class Phy:
         return captures
 
     # -- what the link sends ------------------------------------------------------------
-    async def grant(self, since_end: int) -> Capture:
-        """Grant the bus and capture every packet the link sends until it lets go."""
+    async def grant(self, since_end: int, *, speed: int = S400) -> Capture:
+        """Grant the bus and capture every packet the link sends until it lets go.
+
+        A packet ended with Hold asks for concatenation: the PHY waits the
+        minimum packet separation and grants again, and the next packet joins
+        this capture (the response behind its ack_pending).
+        """
+        packets: list[bytes] = []
+        first_byte: int | None = None
+        cycles = 0
+        for _ in range(MAX_CONCATENATED):
+            tenure = await self._tenure(speed)
+            if tenure.first_byte is not None and first_byte is None:
+                first_byte = since_end + cycles + tenure.first_byte
+            packets += tenure.packets
+            cycles += tenure.cycles
+            if not tenure.concatenate:
+                break
+            for _ in range(PACKET_SEPARATION - 2):  # the release and turnaround were the first
+                await self.step()
+            cycles += PACKET_SEPARATION - 2
+        return Capture(packets, first_byte if first_byte is not None else -1)
+
+    async def _tenure(self, speed: int) -> _Tenure:
+        """One Grant and what the link does with the interface until it gives it back."""
         step = self.step
         await step(True, GRANT, 0)
         await step(True, IDLE, 0)
+        width = SPEED_BITS[speed]
         packets: list[bytes] = []
         current: bytearray | None = None
-        started = False
-        hold = 0
+        symbol = symbols = 0
+        # take: not driving yet; prefix: Idle/Hold before Transmit; data: Transmit;
+        # end: the cycle after the data (Hold or Idle); close: the one more Idle.
+        phase = "take"
+        idles = hold = 0
         first_byte: int | None = None
+        concatenate = False
         cycles = 2
-        for _ in range(OWN_LIMIT):
+        driving = False
+        for _ in range(self.limits.own):
             mon = await step(False)
             cycles += 1
-            if not mon >> MON_OE & 1:
-                if started:
+            driving = bool(mon >> MON_OE & 1)
+            if not driving:
+                if phase == "take":
+                    if cycles > GRANT_TIMEOUT:
+                        break  # the link did not take the bus it asked for
+                    continue
+                if phase == "data":
                     self._violate("release", "the link let go of the interface without Idle")
-                    break
-                if cycles > GRANT_TIMEOUT:
-                    break  # the link did not take the bus it asked for
-                continue
-            ctl = mon >> MON_CTL & 3
-            started = True
-            if ctl == TRANSMIT:
-                if first_byte is None:
-                    first_byte = since_end + cycles
-                if current is None:
-                    current = bytearray()
-                current.append(mon & 0xFF)
-                hold = 0
-            elif ctl == HOLD:
-                if current is not None:
-                    packets.append(bytes(current))
-                    current = None
-                hold += 1
-                if hold == MAX_HOLD + 1:
-                    self._violate("hold", f"Hold kept longer than {MAX_HOLD} cycles")
-            elif ctl == IDLE:
+                elif phase == "end":
+                    self._violate(
+                        "closing-idle",
+                        "the link let go right after its packet, without the closing Idle",
+                    )
+                elif phase == "prefix" and hold:
+                    self._violate("release", "the link let go after Hold without transmitting")
                 break
-            else:
+            ctl = mon >> MON_CTL & 3
+            if ctl == 0b11:
                 self._violate("ctl-reserved", "the link drove the reserved CTL value 11")
+                continue
+            if phase == "end":
+                if ctl == IDLE:
+                    phase = "close"
+                    break
+                self._violate(
+                    "no-grant",
+                    "the link transmitted its next packet without waiting for the PHY's Grant"
+                    if concatenate
+                    else "the link went on transmitting after ending its packet with Idle",
+                )
+                # Capture it all the same: its contents are judged by the other oracles.
+                concatenate = False
+                phase, idles, hold = "prefix", 0, 0
+            if phase in ("take", "prefix"):
+                if ctl == IDLE:
+                    idles += 1
+                    phase = "prefix"
+                    if idles > MAX_NULL_IDLE:
+                        break  # a null packet (split-flag pins cannot show the release)
+                    continue
+                if ctl == HOLD:
+                    hold += 1
+                    phase = "prefix"
+                    if hold == MAX_HOLD + 1:
+                        self._violate("hold", f"Hold kept longer than {MAX_HOLD} cycles")
+                    continue
+                phase = "data"
+                current = bytearray()
+                symbol = symbols = 0
+                if first_byte is None:
+                    first_byte = cycles
+            if phase == "data":
+                assert current is not None
+                if ctl == TRANSMIT:
+                    symbol = symbol << width | (mon & 0xFF) >> (8 - width)
+                    symbols += width
+                    if symbols == 8:
+                        current.append(symbol)
+                        symbol = symbols = 0
+                    continue
+                packets.append(bytes(current))
+                current = None
+                concatenate = ctl == HOLD
+                phase = "end"
         else:
-            self._violate("ownership", f"the link kept the bus {OWN_LIMIT} cycles")
+            self._violate("ownership", f"the link kept the bus {self.limits.own} cycles")
         if current is not None:
             packets.append(bytes(current))
-        return Capture(packets, first_byte if first_byte is not None else -1)
+        if driving:
+            # The link lets go after its closing Idle, and neither side drives for
+            # one cycle (the turnaround) before the PHY does.
+            for _ in range(2):
+                mon = await step(False)
+                cycles += 1
+                if self.release_visible and mon >> MON_OE & 1:
+                    self._violate("release", "the link still drove CTL/D after its closing Idle")
+        return _Tenure(packets, first_byte, concatenate and phase in ("end", "close"), cycles)
 
-    async def exchange(self, raw: bytes, *, interrupting: int = 0) -> Reply:
-        """Deliver ``raw`` and return the link's ack, response and tenure."""
+    async def exchange(self, raw: bytes, *, interrupting: int = 0, speed: int = S400) -> Reply:
+        """Deliver ``raw`` at ``speed`` and return the link's ack, response and tenure."""
+        start = self.cycles
         await self._service_outside()
+        self.effects = []
         if self.server is not None:
             self.server.new_packet()
             self.forget_read()
-        await self.receive(raw, interrupting=interrupting)
+        await self.receive(raw, interrupting=interrupting, speed=speed)
         captures: list[Capture] = []
         # A request that starts after the ack gap cannot bring an ack inside it:
         # so much quiet on LREQ is silence.
         quiet = 0
         waited = 1  # the Idle that ended the packet
         while quiet < self.ack_gap or self.lreq_busy:
+            if self.cycles - start > self.limits.answer:
+                self._violate(
+                    "timeout", f"no end to the answer {self.limits.answer} cycles after the packet"
+                )
+                break
             if self.requests:
                 request = self.requests[0]
                 if request.kind in BUS_REQUESTS:
                     self.requests.popleft()
-                    captures.append(await self.grant(waited))
+                    captures.append(await self.grant(waited, speed=_speed_of(request)))
                     quiet = 0
                     if self._answered(captures):
                         break
@@ -348,7 +495,7 @@ class Phy:
             waited += 1
             quiet = 0 if mon >> MON_LREQ & 1 else quiet + 1
         await self._settle()
-        return self._reply(captures)
+        return self._reply(captures)._replace(effects=self.effects)
 
     def _answered(self, captures: list[Capture]) -> bool:
         packets = [p for c in captures for p in c.packets]
@@ -358,13 +505,13 @@ class Phy:
         return len(ack) != 1 or ack[0] >> 4 != 0x2 or len(packets) > 1
 
     async def _settle(self) -> None:
-        for _ in range(BUSY_LIMIT):
+        for _ in range(self.limits.busy):
             mon = await self.step()
             if not mon >> MON_BUSY & 1 and not self.lreq_busy and not self.requests:
                 return
             if self.requests:
                 await self._service_outside()
-        self._violate("busy", f"the link stayed busy {BUSY_LIMIT} cycles after its answer")
+        self._violate("busy", f"the link stayed busy {self.limits.busy} cycles after its answer")
 
     async def _service_outside(self) -> None:
         # Between answers the link has nothing to send: a packet now is an ack that
@@ -398,3 +545,15 @@ class Phy:
             return Reply(code, first.packets[1], True)
         later = [p for c in captures[captures.index(first) + 1 :] for p in c.packets]
         return Reply(code, later[0] if later else None, False)
+
+
+def _speed_of(request: Request) -> int:
+    """The speed a bus request asks for (000 S100, 010 S200, 100 S400)."""
+    return min(request.payload >> 1 & 3, S400)
+
+
+def _unsigned(value: Any) -> int:
+    """A signal's value, X and Z bits read as 0."""
+    if value.is_resolvable:
+        return int(value.to_unsigned())
+    return int("".join(c if c in "01" else "0" for c in str(value)) or "0", 2)

@@ -21,10 +21,23 @@ from fw1394.boards.registry import BOARDS
 from fw1394.errors import UsageError
 
 STYLES = ("inout", "split-oe", "split-flag")
+#: Packet speeds by index (as ImmReq carries them, shifted right once).
+SPEED_NAMES = ("S100", "S200", "S400")
 ORDERS = ("msb", "lsb")
 #: The register bus signals a design may expose, and their widths (addr: 1..16 bits).
 REGISTER_SIGNALS = ("addr", "len", "rd", "blk_rd", "wr", "blk_wr", "wdata", "rdata")
 _REQUIRED_REGISTER_SIGNALS = ("addr", "rdata", "wr", "wdata")
+#: Signals inside a design with its own registers that show a register access:
+#: ``wr``/``rd`` (each one signal or a list, any of them high is an access),
+#: ``addr`` and ``wdata`` (read when a strobe is seen).
+EFFECT_SIGNALS = ("wr", "rd", "addr", "wdata")
+#: The [phy] keys: (default, least value), all in SCLK cycles.
+PHY_LIMITS = {
+    "ack_gap": (32, 4),
+    "busy_cycles": (20_000, 100),
+    "own_cycles": (80_000, 100),
+    "answer_cycles": (200_000, 1_000),
+}
 HDL_DIR = Path(__file__).parent / "hdl"
 PORTMAP_DIR = Path(__file__).parent / "portmaps"
 
@@ -62,6 +75,17 @@ class PortMap:
     parameters: dict[str, int] = field(default_factory=dict)
     #: Cycles from the end of a received packet to the ack's first byte, at most.
     ack_gap: int = 32
+    #: Limits in SCLK cycles ([phy] table): how long the link may stay busy after an
+    #: answer, keep the interface in one ownership, and take over one packet in all.
+    busy_cycles: int = 20_000
+    own_cycles: int = 80_000
+    answer_cycles: int = 200_000
+    #: Signals (paths below the design's top) that show its own register accesses,
+    #: by role (see :data:`EFFECT_SIGNALS`); a served bus shows them by itself.
+    effects: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    #: Registers (quadlet indices) the design writes by itself: their values are the
+    #: design's, not the model's, and writes to them are nobody's side effect.
+    own: tuple[int, ...] = ()
 
     @property
     def served(self) -> bool:
@@ -160,9 +184,26 @@ def parse(data: dict[str, Any], path: Path) -> PortMap:
     parameters = design.get("parameters", {})
     if not isinstance(parameters, dict) or not all(isinstance(v, int) for v in parameters.values()):
         raise PortMapError(f"{where}: [design] parameters must map names to integers")
-    gap = data.get("phy", {}).get("ack_gap", 32)
-    if not isinstance(gap, int) or gap < 4:
-        raise PortMapError(f"{where}: [phy] ack_gap must be an integer >= 4")
+    effects = _effects(data.get("effects", {}), where)
+    if effects and bus:
+        raise PortMapError(f"{where}: [effects] is for a design with its own registers")
+    own = registers_table.get("own", [])
+    if not isinstance(own, list) or not all(
+        isinstance(i, int) and 0 <= i < 1 << width for i in own
+    ):
+        raise PortMapError(f"{where}: [registers] own must list register indices (integers)")
+    phy = data.get("phy", {})
+    if not isinstance(phy, dict):
+        raise PortMapError(f"{where}: [phy] must be a table")
+    unknown = set(phy) - set(PHY_LIMITS)
+    if unknown:
+        raise PortMapError(f"{where}: unknown key {sorted(unknown)[0]!r} in [phy]")
+    limits = {}
+    for key, (default, least) in PHY_LIMITS.items():
+        value = phy.get(key, default)
+        if not isinstance(value, int) or isinstance(value, bool) or value < least:
+            raise PortMapError(f"{where}: [phy] {key} must be an integer >= {least}")
+        limits[key] = value
     return PortMap(
         path=path,
         top=top,
@@ -181,8 +222,31 @@ def parse(data: dict[str, Any], path: Path) -> PortMap:
         model=model,
         defines=defines,
         parameters=dict(parameters),
-        ack_gap=gap,
+        **limits,
+        effects=effects,
+        own=tuple(own),
     )
+
+
+def _effects(table: Any, where: str) -> dict[str, tuple[str, ...]]:
+    if not isinstance(table, dict):
+        raise PortMapError(f"{where}: [effects] must be a table")
+    unknown = set(table) - set(EFFECT_SIGNALS)
+    if unknown:
+        raise PortMapError(f"{where}: unknown key {sorted(unknown)[0]!r} in [effects]")
+    found: dict[str, tuple[str, ...]] = {}
+    for role, value in table.items():
+        names = value if isinstance(value, list) and role in ("wr", "rd") else [value]
+        if not names or not all(
+            isinstance(n, str) and all(part.isidentifier() for part in n.split(".")) for n in names
+        ):
+            raise PortMapError(
+                f"{where}: [effects] {role} must name a signal inside the design (a.b.c)"
+            )
+        found[role] = tuple(names)
+    if found and "wr" not in found:
+        raise PortMapError(f"{where}: [effects] needs wr, the register write strobe")
+    return found
 
 
 def _table(data: dict[str, Any], name: str, where: str) -> dict[str, Any]:
@@ -219,6 +283,8 @@ def _source(base: Path, item: Any, where: str) -> Path:
 #: Bits of the harness's ``mon`` word (what the PHY model reads every cycle).
 MON_D, MON_CTL, MON_OE, MON_LREQ, MON_BUSY = 0, 8, 10, 11, 12
 MON_RD, MON_BLK_RD, MON_WR, MON_BLK_WR = 13, 14, 15, 16
+#: A register write or read happened in the design (its bus or the [effects] signals).
+MON_FX_WR, MON_FX_RD = 17, 18
 #: Bits of the harness's ``phy`` word (what the PHY model drives).
 PHY_D, PHY_CTL, PHY_DRIVE = 0, 8, 10
 
@@ -332,8 +398,10 @@ def harness_verilog(portmap: PortMap) -> str:
         for role, name in regs.items():
             target = "reg_addr_pins" if role == "addr" else f"reg_{role}"
             connections.append(f".{name}({target})")
+    lines += _effect_lines(portmap)
     lines += [
-        "    wire [16:0] mon = {reg_blk_wr, reg_wr, reg_blk_rd, reg_rd, busy, lreq, link_oe,",
+        "    wire [18:0] mon = {fx_rd, fx_wr, reg_blk_wr, reg_wr, reg_blk_rd, reg_rd, busy, lreq,",
+        "                       link_oe,",
         "                       link_oe ? link_ctl : 2'b00, link_oe ? link_d : 8'h00};",
         f"    {portmap.top} {_overrides(portmap.parameters)}dut (",
         "        " + ",\n        ".join(connections),
@@ -342,3 +410,28 @@ def harness_verilog(portmap: PortMap) -> str:
         "",
     ]
     return "\n".join(lines)
+
+
+def _effect_lines(portmap: PortMap) -> list[str]:
+    """``fx_wr``/``fx_rd`` (an access), ``fx_addr``/``fx_wdata`` (what it was)."""
+    fx = portmap.effects
+    if not fx:
+        return [
+            "    wire fx_wr = reg_wr | reg_blk_wr;",
+            "    wire fx_rd = reg_rd | reg_blk_rd;",
+            "    wire [15:0] fx_addr = reg_addr;",
+            "    wire [31:0] fx_wdata = reg_wdata;",
+        ]
+
+    def any_of(role: str) -> str:
+        names = fx.get(role, ())
+        return " | ".join(f"(|dut.{name})" for name in names) or "1'b0"
+
+    addr = f"dut.{fx['addr'][0]}" if "addr" in fx else "16'h0"
+    wdata = f"dut.{fx['wdata'][0]}" if "wdata" in fx else "32'h0"
+    return [
+        f"    wire fx_wr = {any_of('wr')};",
+        f"    wire fx_rd = {any_of('rd')};",
+        f"    wire [15:0] fx_addr = {addr};",
+        f"    wire [31:0] fx_wdata = {wdata};",
+    ]

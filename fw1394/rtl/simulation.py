@@ -12,19 +12,26 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import select
 import shutil
 import socket
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 from typing import Any
 
 from fw1394.errors import Error
 from fw1394.rtl.portmap import HDL_DIR, PortMap, harness_verilog
 
-#: Seconds the simulator may take to compile, start and reset the design.
-START_TIMEOUT = 20.0
+#: Verdicts never depend on wall time: the PHY model bounds every wait in clock
+#: cycles ([phy] in the port map), and the parent waits for the simulator as long
+#: as it lives. Only a simulator that makes no progress at all this many seconds
+#: (a zero-delay loop in the design, say) is given up on.
+STUCK_AFTER = 600.0
+#: Seconds between two looks at whether the simulator still lives.
+_POLL = 1.0
 
 
 class SimulationError(Error, RuntimeError):
@@ -138,12 +145,13 @@ class Simulation:
         defines: tuple[str, ...] = (),
         board_defects: tuple[str, ...] = (),
         waves: Path | None = None,
-        timeout: float = 30.0,
+        stuck_after: float = STUCK_AFTER,
+        sclk_mhz: float = 49.152,
     ) -> None:
         import cocotb_tools.config
 
         self.portmap = portmap
-        self.timeout = timeout
+        self.stuck_after = stuck_after
         fst = waves is not None and waves.suffix == ".fst"
         vvp = build(portmap, defines=defines, waves=waves)
         listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
@@ -155,6 +163,7 @@ class Simulation:
             "physical_id": physical_id,
             "board_id": board_id,
             "defects": list(board_defects),
+            "sclk_mhz": sclk_mhz,
         }
         # The simulator's own output, kept for the error message if it dies.
         self._log = tempfile.TemporaryFile()  # noqa: SIM115
@@ -169,26 +178,38 @@ class Simulation:
             stderr=subprocess.STDOUT,
             cwd=str(vvp.parent),
         )
-        listener.settimeout(START_TIMEOUT)
+        listener.settimeout(_POLL)
+        deadline = time.monotonic() + stuck_after
         try:
-            self.sock, _ = listener.accept()
-        except TimeoutError:
-            tail = self.log_tail()
-            self.close()
-            raise SimulationError(f"the simulator did not start: {tail}") from None
+            while True:
+                try:
+                    self.sock, _ = listener.accept()
+                    break
+                except TimeoutError:
+                    if self.alive() and time.monotonic() < deadline:
+                        continue
+                    tail = self.log_tail()
+                    self.close()
+                    raise SimulationError(f"the simulator did not start: {tail}") from None
         finally:
             listener.close()
+        self.sock.settimeout(None)
         self.stream = self.sock.makefile("rwb")
-        hello = self._receive(START_TIMEOUT)
+        hello = self._receive()
         #: The design acknowledged a valid quadlet read after reset.
         self.acked: bool = hello["acked"]
 
-    def _receive(self, timeout: float) -> dict[str, Any]:
-        self.sock.settimeout(timeout)
+    def _receive(self) -> dict[str, Any]:
+        # Wait while the simulator lives, however slowly the machine runs it; it
+        # answers each request with one whole line (or dies, closing the socket).
+        deadline = time.monotonic() + self.stuck_after
         try:
+            while not select.select([self.sock], [], [], _POLL)[0]:
+                if time.monotonic() > deadline:
+                    raise SimulationError(
+                        f"the simulator made no progress in {self.stuck_after:.0f} s"
+                    )
             line = self.stream.readline()
-        except TimeoutError:
-            raise SimulationError(f"the simulator did not answer within {timeout} s") from None
         except OSError as error:
             raise SimulationError(f"the simulator's socket failed: {error}") from None
         if not line:
@@ -205,15 +226,27 @@ class Simulation:
             self.stream.flush()
         except OSError as error:
             raise SimulationError(f"the simulator is gone: {error}") from None
-        return self._receive(self.timeout)
+        return self._receive()
 
     def exchange(
-        self, packets: list[bytes], now: float, *, interrupting: int = 0
+        self,
+        packets: list[bytes],
+        now: float,
+        *,
+        interrupting: int = 0,
+        speeds: list[int] | None = None,
     ) -> dict[str, Any]:
-        """Deliver ``packets``; ``interrupting``: each cuts a status transfer after N cycles."""
-        message = {"op": "exchange", "now": now, "packets": [p.hex() for p in packets]}
+        """Deliver ``packets``; ``interrupting``: each cuts a status transfer after N cycles;
+        ``speeds``: each packet's speed (0 S100, 1 S200, 2 S400; default S400)."""
+        message: dict[str, Any] = {
+            "op": "exchange",
+            "now": now,
+            "packets": [p.hex() for p in packets],
+        }
         if interrupting:
             message["interrupting"] = interrupting
+        if speeds is not None:
+            message["speeds"] = speeds
         return self.request(message)
 
     def restart(self) -> bool:

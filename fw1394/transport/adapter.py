@@ -33,6 +33,7 @@ import signal
 import socket
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import FrameType
@@ -56,9 +57,11 @@ from fw1394.transport.adapter_protocol import (
     choose_version,
     parse_request,
 )
+from fw1394.transport.adapter_services import NodeServices, is_request
 from fw1394.transport.bus_host import BusError, BusHost, StaleGenerationError
 from fw1394.transport.config import BusConfig
-from fw1394.transport.link import ACK, ACK_BYTES, ACK_SIZE, ASYNC_PACKET, RequesterLink
+from fw1394.transport.copies import HostLink
+from fw1394.transport.link import ACK, ACK_BYTES, ACK_SIZE, ASYNC_PACKET
 from fw1394.transport.membership import Timing
 from fw1394.transport.observe import BusView, watch
 from fw1394.transport.procs import die_with_parent
@@ -105,15 +108,20 @@ class Client:
     version: int | None = None
 
 
-class AdapterLink(RequesterLink):
-    """The requester's link, which first hands raw sends the answers meant for them."""
+class AdapterLink(HostLink):
+    """The host's link, which first hands raw sends the answers meant for them."""
 
     def __init__(self, host: BusHost) -> None:
         super().__init__(host.requester, host.station.send, host.station)
         self.raw: dict[int, RawSend] = {}  # by the frame sequence number it went out in
+        #: Requests other nodes address to the adapter's own node go here.
+        self.on_request: Callable[[FrameHeader, bytes], None] | None = None
 
     def take(self, header: FrameHeader, payload: bytes, now: float) -> None:
         if self.raw and self._for_raw(header, payload):
+            return
+        if header.kind == ASYNC_PACKET and self.on_request is not None and is_request(payload):
+            self.on_request(header, payload)
             return
         super().take(header, payload, now)
 
@@ -147,7 +155,7 @@ class AdapterHost(BusHost):
 
     def __init__(self, config: BusConfig, **kw: object) -> None:
         super().__init__(config, **kw)  # type: ignore[arg-type]
-        self.link = link = AdapterLink(self)
+        self.link = self.adapter_link = link = AdapterLink(self)
         #: Raw sends waiting for their answers, by frame sequence number.
         self.raw = link.raw
         self.link.on_reset = self._on_reset
@@ -209,6 +217,8 @@ class Adapter:
         #: Transactions of clients that left before they ended: their ends are dropped.
         self.orphans: set[int] = set()
         self.stopping = False
+        self.services = NodeServices(self)
+        host.adapter_link.on_request = self.services.from_bus
 
     def close(self) -> None:
         for sock in self.clients:
@@ -228,6 +238,7 @@ class Adapter:
             except InterruptedError:
                 continue
             host.serve()
+            self.services.after_serve()
             if self.listener in readable:
                 self._accept()
             for sock in readable:
@@ -246,8 +257,10 @@ class Adapter:
         self.clients[sock] = Client(sock)
 
     def _drop(self, client: Client) -> None:
-        self.clients.pop(client.sock, None)
+        if self.clients.pop(client.sock, None) is None:
+            return
         client.sock.close()
+        self.services.dropped(client)
         self.orphans |= {t for t, p in self.pending.items() if p[0] is client}
         self.pending = {t: p for t, p in self.pending.items() if p[0] is not client}
         raw = self.host.raw
@@ -332,6 +345,8 @@ class Adapter:
             with host.addressed_in(request.generation):
                 if request.op is Op.send:
                     self._send(client, request)
+                    return
+                if self.services.handle(client, request):
                     return
                 tid = self._start(request)
         except StaleGenerationError as error:

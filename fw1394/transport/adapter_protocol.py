@@ -62,6 +62,18 @@ class Op(IntEnum):
     lock = 3
     send = 4
     hello = 5
+    # The adapter's own node and its bus (fw1394.transport.adapter_services).
+    watch = 6
+    listen = 7
+    unlisten = 8
+    respond = 9
+    cycle_time = 10
+    config_rom = 11
+    reset = 12
+    iso_send = 13
+    iso_listen = 14
+    add_descriptor = 15
+    remove_descriptor = 16
 
 
 class Status(IntEnum):

@@ -29,9 +29,10 @@ from fw1394.packets.fast import encode_packet
 from fw1394.packets.nodeid import BROADCAST_ID, resolve
 from fw1394.packets.nodeid import LOCAL_BUS as LOCAL_BUS  # the bus hosts address, re-exported
 from fw1394.transport.config import BusConfig
+from fw1394.transport.copies import HostLink
 from fw1394.transport.faults import FaultConfig
 from fw1394.transport.idle import IdleStrategy
-from fw1394.transport.link import ACK_SIZE, BusRefusedError, RequesterLink
+from fw1394.transport.link import ACK_SIZE, BusRefusedError
 from fw1394.transport.membership import BusReset, Timing
 from fw1394.transport.station import Station
 from fw1394.transport.wire import HEADER_SIZE, MAX_UDP_PAYLOAD, MemberInfo
@@ -101,6 +102,10 @@ class StaleGenerationError(TransactionError):
     the two generations.
     """
 
+    def __new__(cls, addressed: int, current: int) -> StaleGenerationError:
+        # The engine error's constructor takes a failure event; this one takes generations.
+        return Exception.__new__(cls)
+
     def __init__(self, addressed: int, current: int) -> None:
         self.addressed, self.current = addressed, current
         detail = f"addressed in generation {addressed}, the bus is in {current}: not sent"
@@ -143,7 +148,9 @@ class BusHost:
             # then hold labels after an answer for a copy to pass (docs/engine.md).
             duplicate_window=None if faults is not None and faults.duplicate else 0.0,
         )
-        self.link = RequesterLink(self.requester, self.station.send, self.station)
+        # Every answer taken once: a copy must not complete a transaction that
+        # reuses its label (fw1394.transport.copies).
+        self.link: HostLink = HostLink(self.requester, self.station.send, self.station)
         self.link.on_reset = self._on_reset
         self.link.on_progress = self._collect
         self._flush_requests = self.link.flush

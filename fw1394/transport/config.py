@@ -20,6 +20,7 @@ import re
 from dataclasses import dataclass, field
 
 from fw1394.errors import UsageError
+from fw1394.packets.nodeid import MAX_NODES
 
 DEFAULT_BUS = "default"
 #: Administratively scoped IPv4 multicast (RFC 2365): never routed off a site.
@@ -46,6 +47,22 @@ def check_bus_name(name: str) -> str:
             "starting with a letter or digit"
         )
     return name
+
+
+def parse_bus_node(spec: str) -> tuple[str, int]:
+    """The bus name and the node's physical ID of a ``bus:NAME/NODE`` target.
+
+    ``spec`` is the text after ``bus:``. The one parser of this target syntax:
+    the fuzzer and the bench both read it here, so they accept the same targets
+    and refuse the others with the same :class:`BusNameError`.
+    """
+    name, slash, node = spec.rpartition("/")
+    if not slash or not name or not node.isdigit() or not 0 <= int(node) < MAX_NODES:
+        raise BusNameError(
+            f"'bus:{spec}': a bus target is bus:NAME/NODE, NODE a physical ID 0-{MAX_NODES - 1}"
+            " (e.g. bus:default/0)"
+        )
+    return check_bus_name(name), int(node)
 
 
 @dataclass(frozen=True, slots=True)

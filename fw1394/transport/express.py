@@ -166,6 +166,7 @@ class Express:
                     data = concatenated_data(payload, phy, response_class, destination, length, me)
                 if data is not None:
                     solo.finish(now)
+                    self.link.recent.again(header.sender, header.sequence)  # a copy is no news
                     if response_class is not WriteResponse:  # the link acks the response
                         station.send(ACK, phy, _pack_ack(_COMPLETE, label, 0, header.sequence))
                     try:

@@ -11,13 +11,16 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from fw1394.packets.frame import FRAME_TRAILER_SIZE
 from fw1394.transport.config import BusConfig
 from fw1394.transport.medium import Medium
 from fw1394.transport.seal import Sealer, Verifier, key_for
 from fw1394.transport.wire import (
     EVERY_MEMBER,
     HEADER_SIZE,
+    MEMBER,
     NO_PHY,
+    TABLE,
     FrameError,
     FrameHeader,
     FrameKind,
@@ -26,13 +29,22 @@ from fw1394.transport.wire import (
     parse_table,
 )
 
+#: How long a keyless observer that heard a beacon without a MAC listens on for
+#: one with a MAC (three of the default heartbeats).
+SEALED_GRACE = 0.3
+
 
 @dataclass(frozen=True, slots=True)
 class BusView:
-    """The member table a coordinator beaconed, in physical-ID order."""
+    """The member table a coordinator beaconed, in physical-ID order.
+
+    ``sealed``: the beacon carried a bus key's MAC this process could not check
+    (no key here); its members are then left out, as anyone could have sent it.
+    """
 
     generation: int
     members: tuple[MemberInfo, ...]
+    sealed: bool = False
 
 
 def watch(
@@ -42,7 +54,9 @@ def watch(
 ) -> BusView | None:
     """The first beacon within ``timeout`` seconds whose view ``accept`` likes.
 
-    On a keyed bus only beacons with a valid MAC count (without the key, none do).
+    With a key here only beacons with a valid MAC count. Without one, a beacon
+    that carries a MAC says the bus is keyed (:attr:`BusView.sealed`) and
+    nothing about its members.
     """
     key = key_for(config)
     verifier = None if key is None else Verifier(key)
@@ -50,25 +64,43 @@ def watch(
     try:
         medium.filter_as_tap()
         limit = time.monotonic() + timeout
+        unsealed: BusView | None = None
         while time.monotonic() < limit:
             raw = medium.receive()
             if raw is not None and verifier is not None:
                 raw = verifier.open(raw)
-            if raw is None:
+            view = None if raw is None else _beaconed(raw, keyless=verifier is None)
+            if view is None or not accept(view):
                 continue
-            try:
-                header = parse_header(raw)
-                if header.kind != FrameKind.beacon:
-                    continue
-                _, members = parse_table(raw[HEADER_SIZE:])
-            except FrameError:
-                continue
-            view = BusView(header.generation, members)
-            if accept(view):
+            if verifier is not None or view.sealed:
                 return view
-        return None
+            # Without a key anyone can send a beacon without a MAC, on a keyed bus
+            # too: a sealed one heard soon after says what the bus really is.
+            if unsealed is None:
+                unsealed = view
+                limit = min(limit, time.monotonic() + SEALED_GRACE)
+        return unsealed
     finally:
         medium.close()
+
+
+def _beaconed(raw: bytes, keyless: bool) -> BusView | None:
+    """The view in a beacon frame (its MAC already checked and cut off if there is a
+    key here), or None for any other frame."""
+    try:
+        header = parse_header(raw)
+        if header.kind != FrameKind.beacon:
+            return None
+        payload = raw[HEADER_SIZE:]
+        _, members = parse_table(payload)
+    except FrameError:
+        return None
+    table_size = TABLE.size + len(members) * MEMBER.size
+    if keyless and len(payload) == table_size + FRAME_TRAILER_SIZE:
+        # A keyed bus's beacon, seen without its key: the bus is keyed, but whether
+        # a member sent this table, or anyone, cannot be told here.
+        return BusView(header.generation, (), sealed=True)
+    return BusView(header.generation, members)
 
 
 def request_reset(config: BusConfig, generation: int) -> None:

@@ -22,15 +22,34 @@ import tempfile
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
-from fw1394.errors import UsageError
+from fw1394.errors import Error
 from fw1394.transport.config import check_bus_name
 from fw1394.transport.procs import process_alive
 
 if TYPE_CHECKING:
-    from fw1394.transport.seal import DropCounts
     from fw1394.transport.wire import MemberInfo
+
+
+class DropCounts(Protocol):
+    """What a member file reports of a seal's drop counts (``seal.DropCounts`` has it).
+
+    Named here, not imported, because the seal finds its key file through this
+    module: the dependency runs one way.
+    """
+
+    @property
+    def forged(self) -> int: ...
+
+    @property
+    def replayed(self) -> int: ...
+
+    @property
+    def malformed(self) -> int: ...
+
+    @property
+    def total(self) -> int: ...
 
 SUPERVISOR_MODULE = "fw1394.transport.supervisor"
 #: The bus key's file in the bus's directory (fw1394.transport.seal).
@@ -69,6 +88,8 @@ class MemberFile:
         self._path: Path | None = None
         self._written: int | None = None
         self._due = 0.0
+        with contextlib.suppress(OSError):
+            read_members(self._directory)  # a newcomer clears the files of the dead
         self.update(0.0)
 
     def update(self, now: float) -> None:
@@ -96,7 +117,7 @@ class MemberFile:
                 remove_member(self._path)
 
 
-class RuntimeRootError(UsageError, OSError):
+class RuntimeRootError(Error, OSError):
     """The runtime root is not a private directory of this user: someone else could
     have made it, or can see or change what is in it."""
 
@@ -209,16 +230,34 @@ def remove_member(path: Path) -> None:
 
 
 def read_members(directory: Path) -> list[MemberRecord]:
-    """The members recorded whose process still runs."""
+    """The members recorded whose process still runs; the files of the others go.
+
+    A member killed (SIGKILL, a crash) cannot remove its own file: a file whose
+    process has exited is removed here, by whoever looks first (``bus status``,
+    ``bus down``, a member starting). (A pid handed to another process since
+    keeps its file; ``bus down`` stops only processes of this package.)
+    """
     records = []
-    for path in sorted((directory / MEMBERS_DIR).glob("*.json")):
+    folder = directory / MEMBERS_DIR
+    for path in sorted(folder.glob("*.tmp")):
+        if not process_alive(_pid_of(path)):
+            path.unlink(missing_ok=True)  # a write its process never finished
+    for path in sorted(folder.glob("*.json")):
         try:
             record = MemberRecord(**json.loads(path.read_text()))
         except (OSError, ValueError, TypeError):
             continue
         if process_alive(record.pid):
             records.append(record)
+        else:
+            path.unlink(missing_ok=True)
     return records
+
+
+def _pid_of(path: Path) -> int:
+    """The pid a member file's name starts with (0: none)."""
+    head = path.name.split("-", 1)[0]
+    return int(head) if head.isdigit() else 0
 
 
 def read_pid(directory: Path) -> int | None:

@@ -21,7 +21,7 @@ import struct
 from dataclasses import dataclass
 from pathlib import Path
 
-from fw1394.errors import UsageError
+from fw1394.errors import Error
 
 PROC = Path("/proc")
 WILDCARD = "0.0.0.0"
@@ -29,7 +29,7 @@ WILDCARD = "0.0.0.0"
 COMMAND_SHOWN = 100
 
 
-class PortInUseError(UsageError, OSError):
+class PortInUseError(Error, OSError):
     """A UDP address another socket already holds (one line for the user)."""
 
 

@@ -454,3 +454,26 @@ def test_csr_node_ids() -> None:
     assert board.read_quadlet(0xFFFF_F000_0008) == 0x3FF << 22 | 2 << 16
     board.write_quadlet(FW_PHY_REQ, 0)
     assert board.read_quadlet(FW_PHY_RESP) >> 2 & 0x3F == 2  # physical id in PHY register 0
+
+
+def test_old_rt_broadcast_write_each_board_takes_its_tagged_group() -> None:
+    # Before Rev 8 the host tags every DAC command with the board id (bits 27..24) and
+    # packs the groups of the boards in use, 4 quadlets each, into one broadcast (§4.6).
+    board = Qla1Board(board_id=2, firmware=5)
+    groups = [[0x80000000 | owner << 24 | 0x100 * owner + n for n in range(1, 5)]
+              for owner in (0, 2, 3)]  # fmt: skip
+    board.write_block(0xFFFF_FFFF_0000, pack(*groups[0], *groups[1], *groups[2]))
+    assert [board.read_quadlet(channel(n, DAC)) for n in range(1, 5)] == [
+        0x201,
+        0x202,
+        0x203,
+        0x204,
+    ]
+
+
+@pytest.mark.parametrize(("firmware", "taken"), [(4, True), (6, True), (7, False), (8, False)])
+def test_old_query_address_only_before_rev7(firmware: int, taken: bool) -> None:
+    # The FireWire host sends the query to 0xFFFF_FFFF_000F when no board is Rev 7 or later.
+    board = Qla1Board(board_id=0, firmware=firmware)
+    board.write_quadlet(0xFFFF_FFFF_000F, 0x0102 << 16 | 1)
+    assert board.read_quadlet(0x1800) == (0x01020001 if taken else 0)

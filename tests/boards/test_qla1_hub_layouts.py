@@ -154,3 +154,14 @@ def test_rev7_hub_sequence_mismatch_keeps_the_boards_own_sequence() -> None:
     hub.write_block(BROADCAST_OFFSET, pack([0x0100 << 16 | 28, *block]))
     memory = words(hub.read_block(HUB, 4 * 59))
     assert memory[0] >> 16 == 0x0101 and memory[29] >> 16 == 0x0100
+
+
+@pytest.mark.parametrize("firmware", [5, 7, 9])
+def test_a_block_read_of_hub_space_equals_its_quadlet_reads(firmware: int) -> None:
+    hub, *others = [make_board(board_id, firmware) for board_id in (0, 3, 6)]
+    run_round(hub, others, 0x0456, gaps=[3, 4])
+    start, count = HUB + 20, 120
+    block = words(hub.read_block(start, 4 * count))
+    assert block == [hub.read_quadlet(start + n) for n in range(count)]
+    tail = words(hub.read_block(0x17F0, 4 * 24))  # past hub memory into the query registers
+    assert tail == [hub.read_quadlet(0x17F0 + n) for n in range(24)]

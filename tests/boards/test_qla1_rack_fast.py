@@ -40,6 +40,8 @@ def snapshot(value: Any) -> Any:
     """Everything an object holds, as plain data (callables only named)."""
     if value is None or isinstance(value, int | float | str | bytes):
         return value
+    if isinstance(value, bytearray):
+        return bytes(value)
     if callable(value):
         return "callable"  # a method or handler: behaviour, not state
     if isinstance(value, list | tuple):
@@ -206,6 +208,7 @@ def scenarios(draw: st.DrawFn) -> tuple[list[int], int, list[tuple[str, Any]]]:
 def test_one_pass_equals_port_by_port(scenario: tuple[list[int], int, list[Any]]) -> None:
     ids, firmware, script = scenario
     fast, reference = Rack(ids, firmware=firmware), Rack(ids, firmware=firmware)
+    reference.fast_path = None
     mask = sum(1 << board_id for board_id in ids)
     now, sequence = 0.001, 0
     for kind, detail in script:
@@ -332,6 +335,139 @@ def test_a_repeated_sequence_is_left_to_the_general_path() -> None:
     assert fast.receive(query(7, 0b11), HOST, 0.002) is None
 
 
-def test_bridge_mode_is_never_taken() -> None:
+def test_bridge_mode_is_never_taken_by_the_multicast_path() -> None:
     _, fast = fast_path([0, 1], firmware=8)
     assert fast.receive(query(1, 0b11), HOST, 0.001) is None
+
+
+# -- bridge mode (firmware 8 and before): the hub's broadcasts in one pass ----------------------
+
+
+def bridge_write(ids: list[int], firmware: int, draw: st.DrawFn) -> list[int]:
+    """The host's broadcast write for ``firmware`` (§4.6), boards in some order."""
+    words: list[int] = []
+    for board_id in draw(st.permutations(ids)):
+        dacs = draw(st.lists(dac, min_size=4, max_size=4))
+        if firmware >= 8:
+            words += rt_block(board_id, dacs, draw(control))
+            continue
+        tagged = [value & ~(0xF << 24) | board_id << 24 for value in dacs]
+        words += tagged + ([draw(control)] if firmware == 7 else [])
+    return words
+
+
+@st.composite
+def bridge_scenarios(draw: st.DrawFn) -> tuple[list[int], int, list[tuple[str, Any]]]:
+    ids = draw(st.lists(st.integers(0, 15), min_size=1, max_size=8, unique=True))
+    firmware = draw(st.sampled_from([4, 5, 6, 7, 8]))
+    mask = sum(1 << board_id for board_id in ids)
+    sequence = st.integers(0, 0xFFFF)
+
+    def bridge(packet: Request) -> bytes:
+        return datagram(packet, no_forward=False)
+
+    def to_everyone(value: int, offset: int = HUB_QUERY) -> bytes:
+        return bridge(
+            QuadletWriteRequest(
+                destination_id=EVERY_NODE,
+                tlabel=5,
+                source_id=HOST_ID,
+                offset=offset,
+                quadlet_data=value,
+            )
+        )
+
+    def write(words: list[int], offset: int = 0) -> bytes:
+        data = struct.pack(f">{len(words)}I", *words)
+        return bridge(
+            BlockWriteRequest(
+                destination_id=EVERY_NODE, tlabel=6, source_id=HOST_ID, offset=offset, data=data
+            )
+        )
+
+    def read(node: int, offset: int, count: int) -> bytes:
+        return bridge(
+            BlockReadRequest(
+                destination_id=LOCAL_BUS_IDS | node,
+                tlabel=7,
+                source_id=HOST_ID,
+                offset=offset,
+                data_length=4 * count,
+            )
+        )
+
+    cycle = st.builds(
+        lambda s, w: [to_everyone(s << 16 | mask), write(w)],
+        sequence,
+        st.builds(lambda: bridge_write(ids, firmware, draw)),
+    )
+    single = st.one_of(
+        st.builds(lambda s, m: to_everyone(s << 16 | m), sequence, st.integers(0, 0xFFFF)),
+        st.builds(lambda s: to_everyone(s << 16 | mask, 0xFFFF_0000_1800), sequence),
+        st.builds(lambda s: query(s, mask), sequence),  # no-forward set
+        st.builds(lambda w: write(w), st.lists(quadlet, max_size=24)),
+        st.builds(lambda w: write(w, offset=4), st.lists(quadlet, min_size=1, max_size=8)),
+        st.builds(lambda w: write(w)[:-3], st.lists(quadlet, max_size=8)),
+        st.builds(
+            read, st.integers(0, len(ids) - 1), st.sampled_from([0, 0x1000]), st.integers(1, 40)
+        ),
+        st.binary(max_size=40),
+    )
+    events = st.one_of(
+        st.tuples(st.just("datagrams"), cycle),
+        st.tuples(st.just("datagrams"), cycle),
+        st.tuples(st.just("datagrams"), single.map(lambda one: [one])),
+        st.tuples(
+            st.just("register"), st.tuples(st.sampled_from(ids), st.integers(0, 0x4F), quadlet)
+        ),
+        st.tuples(st.just("wait"), st.sampled_from([0.0, 1e-6, 2e-4, 0.05])),
+        st.tuples(st.just("bus"), st.sampled_from(["reset", "resetting", "settled"])),
+    )
+    return ids, firmware, draw(st.lists(events, min_size=1, max_size=20))
+
+
+@settings(max_examples=120, deadline=None)
+@given(bridge_scenarios())
+def test_bridge_one_pass_equals_the_general_path(
+    scenario: tuple[list[int], int, list[Any]],
+) -> None:
+    ids, firmware, script = scenario
+    fast, reference = Rack(ids, firmware=firmware), Rack(ids, firmware=firmware)
+    reference.fast_path = None
+    now = 0.001
+    for kind, detail in script:
+        if kind == "wait":
+            now += detail
+        elif kind == "bus":
+            for rack in (fast, reference):
+                if detail == "reset":
+                    rack.bus_reset()
+                rack.bus.resetting = detail == "resetting"
+        elif kind == "register":
+            board_id, index, value = detail
+            for rack in (fast, reference):
+                member = next(m for m in rack.members if m.board.board_id == board_id)
+                member.responder.advance_clock(now)
+                member.board.write_quadlet(index, value)
+        else:
+            for payload in detail:
+                replies = fast.receive(0, payload, HOST, now)
+                assert replies == reference.receive(0, payload, HOST, now)
+                assert rack_state(fast) == rack_state(reference)
+
+
+def test_the_bridge_cycle_goes_the_fast_way() -> None:
+    rack = Rack([0, 1, 2], firmware=7)
+    assert rack.fast_path is not None
+    query_bridge = datagram(
+        QuadletWriteRequest(
+            destination_id=EVERY_NODE, tlabel=1, source_id=HOST_ID, offset=HUB_QUERY,
+            quadlet_data=0x0123_0007,
+        ),
+        no_forward=False,
+    )  # fmt: skip
+    assert rack.fast_path.bridge(query_bridge, HOST, 0.001, resetting=False) == []
+    hub = rack.members[0].board.hub
+    assert sorted(hub.blocks) == [0, 1, 2] and hub.complete
+    assert rack.fast_path.bridge(query_bridge, HOST, 0.002, resetting=False) is None
+    assert rack.fast_path.bridge(query(9, 0b111), HOST, 0.003, resetting=False) is None

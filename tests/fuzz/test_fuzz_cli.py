@@ -39,6 +39,7 @@ def test_run_saves_reproducers_that_replay(
         "state",
         "process",
         "interface",
+        "side-effect",
     }
     loaded = load(out)
     assert loaded and all(f.reproduced and f.shrunk for _, f in loaded)

@@ -8,6 +8,7 @@ real CLI as a subprocess.
 
 from __future__ import annotations
 
+import os
 import signal
 import subprocess
 import sys
@@ -17,7 +18,8 @@ import pytest
 
 from fw1394.jhu.scan import ScannedBoard, default_protocol, git_suffix
 
-PORT = 21874
+# Two ports per test process (parallel workers each have their own pid).
+PORT = 20_000 + 2 * (os.getpid() % 5_000)
 
 
 def serve(*options: str) -> subprocess.Popen[str]:

@@ -60,6 +60,8 @@ def test_campaign_on_the_thesis_rtl_is_clean() -> None:
         ("unbounded-block", 80, ("reply", "read:rcode")),
         ("early-ack", 80, ("silence", "bad-length:write:ack_complete")),
         ("long-hold", 5, ("interface", "hold")),
+        ("no-second-grant", 5, ("interface", "no-grant")),
+        ("no-closing-idle", 5, ("interface", "closing-idle")),
     ],
 )
 def test_planted_rtl_defects_are_found(defect: str, cases: int, finding: tuple[str, str]) -> None:

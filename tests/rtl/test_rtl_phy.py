@@ -6,11 +6,11 @@ import pytest
 
 pytest.importorskip("cocotb", reason="cocotb is not installed (pip install 'fw1394[rtl]')")
 
-from fw1394.rtl.phy import Phy, Request
+from fw1394.rtl.phy import Limits, Phy, Request
 
 
 def _decoded(*streams: str) -> tuple[list[Request], list[str]]:
-    phy = Phy(None, physical_id=0, ack_gap=40, registers=None)
+    phy = Phy(None, physical_id=0, limits=Limits(ack_gap=40), registers=None)
     for stream in streams:
         for bit in "0" + stream + "000":  # idle low before and after
             phy._lreq(int(bit))

@@ -1,6 +1,7 @@
 `timescale 1ns/1ps
-// A broken wrapper of the thesis link: its output enables let go one cycle late,
-// so the link still drives when the PHY has taken the interface back.
+// A broken wrapper of the thesis link: its output enables let go three cycles
+// late, so the link still drives after its closing Idle, in the turnaround
+// cycle, and when the PHY has taken the interface back.
 module variant_late_release (
     input  wire       sclk,
     input  wire       rst,
@@ -18,11 +19,15 @@ module variant_late_release (
     wire [15:0] reg_addr, reg_len;
     wire        reg_rd, reg_blk_rd, reg_wr, reg_blk_wr;
     wire [31:0] reg_wdata, reg_rdata;
-    reg         late = 1'b0;
+    reg         late = 1'b0, later = 1'b0, latest = 1'b0;
 
-    always @(posedge sclk) late <= link_ctl_oe;
-    assign ctl_oe = link_ctl_oe | late;
-    assign d_oe = link_d_oe | late;
+    always @(posedge sclk) begin
+        late <= link_ctl_oe;
+        later <= late;
+        latest <= later;
+    end
+    assign ctl_oe = link_ctl_oe | late | later | latest;
+    assign d_oe = link_d_oe | late | later | latest;
     fw1394_link link (
         .clk(sclk), .rst(rst),
         .ctl_i(ctl_i), .ctl_o(ctl_o), .ctl_oe(link_ctl_oe),

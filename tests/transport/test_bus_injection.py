@@ -181,6 +181,6 @@ def test_the_tap_records_only_genuine_frames_and_status_shows_the_count(
                 if "keyed, 2 forged" in out:
                     break
                 time.sleep(0.2)
-            assert "keyed, 2 forged and 0 replayed frames dropped" in out
+            assert "keyed, 2 forged, 0 replayed and 0 malformed frames dropped" in out
         finally:
             del os.environ[KEY_FILE_ENV]

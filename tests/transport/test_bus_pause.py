@@ -16,7 +16,8 @@ import time
 from pathlib import Path
 
 import pytest
-from bus_support import bus_name, wait_until_gone
+from bus_support import bus_name, wait_hosts_dropped, wait_until_gone
+from polling import wait_until
 
 from fw1394.transport.config import BusConfig
 from fw1394.transport.launch import LaunchedBus
@@ -82,9 +83,11 @@ def test_a_stopped_host_comes_back_without_failures_or_taking_over(
                 [sys.executable, "-c", HOST_PROGRAM, config.name, "7", str(depth)], stdout=out
             )
         try:
-            time.sleep(2.0)
+            # Stop the host in the middle of its traffic, and continue it once the
+            # bus has dropped it (a lease without a heartbeat from it).
+            wait_until(lambda: '"kind": "tx"' in log.read_text(), timeout=30)
             os.kill(host.pid, signal.SIGSTOP)
-            time.sleep(4.0)  # two leases: the bus drops the host meanwhile
+            wait_hosts_dropped(bus.member_config)
             resumed = time.monotonic()
             os.kill(host.pid, signal.SIGCONT)
             host.wait(30)

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import copy
 import math
-import time
 from collections import deque
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -26,7 +25,7 @@ from types import SimpleNamespace
 from typing import Any
 
 import pytest
-from bus_support import bus_name, wait_until_gone
+from bus_support import bus_name, wait_hosts_dropped, wait_until_gone
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -412,7 +411,8 @@ def test_blocking_calls_on_a_real_bus_after_the_host_was_away(
             port.write_quadlet(0, 8, 0xCAFE)
             port.write_block(0, 16, b"express!")
             resets = len(port.resets)
-            time.sleep(2.5)
+            # The host does not run until the coordinator has dropped it.
+            wait_hosts_dropped(bus.member_config)
             assert port.read_quadlet(0, 8) == 0xCAFE
             assert port.read_block(0, 16, 8) == b"express!"
             assert len(port.resets) > resets, "the host must have rejoined the bus"

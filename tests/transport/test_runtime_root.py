@@ -100,6 +100,7 @@ def test_a_root_someone_else_shaped_stops_bus_up_with_one_line(
 
 @pytest.mark.process
 @needs_root
+@pytest.mark.process
 def test_another_user_cannot_list_the_bus_names(monkeypatch: pytest.MonkeyPatch) -> None:
     # A temporary directory others can reach, as /tmp is (pytest's own is 0700).
     shared = Path(tempfile.mkdtemp())

@@ -28,6 +28,7 @@ from fw1394.boards.qla1.channels import MotorChannel
 from fw1394.boards.qla1.config_rom import CSR_BYTE_MASK, CsrSpace, build_config_rom, in_csr_window
 from fw1394.boards.qla1.hub import HubBlock, HubState, reporting_board
 from fw1394.boards.qla1.phy_window import PhyInterface
+from fw1394.boards.qla1.prom import ConfigProm, qla_prom_with_serial, with_fpga_serial
 from fw1394.boards.qla1.regmap import FIREWIRE_DECODING
 from fw1394.boards.qla1.regs import (
     BLOCK_INDEX_MASK,
@@ -37,7 +38,13 @@ from fw1394.boards.qla1.regs import (
     HUB_QUERY,
     IP_UNASSIGNED,
     MAX_BOARD_ID,
+    OLD_QUERY_LAST_FIRMWARE,
+    OLD_QUERY_OFFSET,
+    PROM_BUFFER_BASE,
     QLA1_HARDWARE_VERSION,
+    QLA_PROM_BUFFER,
+    QLA_PROM_COMMAND,
+    QLA_PROM_RESULT,
     SPACE_SHIFT,
     BoardRegister,
     ChannelRegister,
@@ -104,6 +111,9 @@ class Qla1Board:
         self._initial_ip = IP_UNASSIGNED if ip_address is None else ip_to_register(ip_address)
         self._node_id = phy_of(physical_id)
         self._now = 0
+        # The PROMs keep their contents through a reboot.
+        self.prom = with_fpga_serial(ConfigProm(), f"FPGA 1394-{board_id:02d}")
+        self.qla_prom = qla_prom_with_serial(f"QLA 1394-{board_id:02d}")
         self._power_up()
         # Readers look attributes up on each call, so they survive a reboot's fresh state.
         self._board_readers = self._board_register_readers()
@@ -189,6 +199,9 @@ class Qla1Board:
         if in_csr_window(offset):
             self.csr.write(offset & CSR_BYTE_MASK, value)
             return
+        if offset == OLD_QUERY_OFFSET and self.firmware <= OLD_QUERY_LAST_FIRMWARE:
+            self._broadcast_query(value)
+            return
         self._write_index(_register_address(offset), value)
 
     def read_block(self, offset: int, length: int) -> bytes:
@@ -201,6 +214,9 @@ class Qla1Board:
             words = [self.csr.read((start + 4 * n) & CSR_BYTE_MASK) for n in range(count)]
         elif _space(_register_address(offset)) == Space.MAIN:
             words = self._rt_block_read(_register_address(offset), count)
+        elif _space(_register_address(offset)) == Space.HUB:
+            # Hub memory is laid out once per read, not once per quadlet.
+            words = self.hub.read_registers(self._block_indices(offset, count), self._now)
         else:
             words = [self._read_index(index) for index in self._block_indices(offset, count)]
         return _quadlets_to_bytes(words)[:length]
@@ -225,6 +241,10 @@ class Qla1Board:
             return
         if space == Space.HUB and index == HUB_MEMORY_BASE:
             self.store_hub_broadcast(words)
+            return
+        if space == Space.PROM and index == PROM_BUFFER_BASE:
+            self.watchdog.clear_count(self._now)
+            self.prom.program(words, self._now)
             return
         self.watchdog.clear_count(self._now)
         for target, value in zip(self._block_indices(offset, len(words)), words, strict=True):
@@ -253,6 +273,12 @@ class Qla1Board:
             return self._read_main(index)
         if space == Space.HUB:
             return self.hub.read_register(index, self._now)
+        if space == Space.PROM:
+            return self.prom.buffer_read(index - PROM_BUFFER_BASE)
+        if space == Space.PROM_QLA:
+            if index == QLA_PROM_RESULT:
+                return self.qla_prom.result
+            return self.qla_prom.buffer_read(index - QLA_PROM_BUFFER)
         return self._unmapped(index)
 
     def _write_index(self, index: int, value: int) -> None:
@@ -261,7 +287,12 @@ class Qla1Board:
             self._write_main(index, value)
         elif space == Space.HUB and index == HUB_QUERY:
             self._broadcast_query(value)
-        # Other spaces (PROM, Ethernet debug, data buffer...) are not modelled: writes vanish.
+        elif space == Space.PROM_QLA:
+            if index == QLA_PROM_COMMAND:
+                self.qla_prom.command(value)
+            else:
+                self.qla_prom.buffer_write(index - QLA_PROM_BUFFER, value)
+        # Other spaces (Ethernet debug, data buffer...) are not modelled: writes vanish.
 
     def _read_main(self, index: int) -> int:
         channel, register = (index >> 4) & 0xF, index & 0xF
@@ -302,12 +333,14 @@ class Qla1Board:
             BoardRegister.DIGITAL_INPUT: lambda: self.control.digital_input(),
             BoardRegister.IP_ADDRESS: self._ip_register_value,
             BoardRegister.ETH_STATUS: lambda: ETH_STATUS_BY_FPGA_VERSION[self.fpga_version],
+            BoardRegister.PROM_STATUS: self.prom.interface_status,
+            BoardRegister.PROM_RESULT: lambda: self.prom.result,
             BoardRegister.GIT_DESCRIPTION: lambda: self.git_description,
         }
 
     def _read_board_register(self, register: int) -> int:
         reader = self._board_readers.get(register)
-        # PROM, Dallas and I/O-expander interfaces are not modelled: they read as idle (0).
+        # Dallas and I/O-expander interfaces are not modelled: they read as idle (0).
         return reader() if reader is not None else 0
 
     def _hardware_version(self) -> int:
@@ -324,6 +357,8 @@ class Qla1Board:
             self._write_status(value)
         elif register == BoardRegister.FW_PHY_REQ:
             self.phy.write_request(value)
+        elif register == BoardRegister.PROM_STATUS:
+            self.prom.command(value, self._now)
         elif register == BoardRegister.FW_PHY_RESP:
             self.phy.write_response(value)
         elif register == BoardRegister.WATCHDOG:
@@ -399,7 +434,7 @@ class Qla1Board:
         elif self.firmware == 7:
             write = rt.decode_rev7_write(words, board)
         else:
-            write = rt.decode_old_write(words)
+            write = rt.decode_old_write(words, board)
         self.apply_rt_write(write)
 
     def apply_rt_write(self, write: rt.RtWrite) -> None:

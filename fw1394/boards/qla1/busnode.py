@@ -39,8 +39,10 @@ from fw1394.boards.qla1.eth_server import (
 from fw1394.boards.qla1.ethernet import Action, EthernetPort, Forward, HubBroadcast, Reply, datagram
 from fw1394.boards.qla1.firewire import (
     ClockedBoard,
+    as_snooped,
     broadcast_sequence,
-    is_hub_query,
+    reaches_every_node,
+    takes_query,
 )
 from fw1394.engine import JHU_FIRMWARE, Responder
 from fw1394.engine.defects import DefectiveResponder
@@ -121,8 +123,22 @@ class BoardLink(ResponderLink):
         ):
             self.actions += self.port.hub_block(packet, board_now)  # another board's block
         elif isinstance(packet, Request):
+            own = self.port.firewire.node_id
+            every = reaches_every_node(packet)
+            repeated = header.destination == BROADCAST_PHY
+            if every and packet.destination_node == own:
+                if repeated:
+                    return  # this board's own repeat of a packet it took already
+                # On a real bus every node sees every packet and the boards snoop these;
+                # the virtual bus brings a packet to its addressee only, so the addressee
+                # repeats it to the others (before its own hub broadcast follows).
+                self._station().send(FrameKind.async_packet, BROADCAST_PHY, payload)
+            if every and packet.destination_node not in (own, BROADCAST_PHY):
+                packet = as_snooped(packet)
             self.serve_packet(packet, damaged, header.sender_phy, header.sequence, now)
-            if is_hub_query(packet) and packet.destination_node in (0, BROADCAST_PHY):
+            if takes_query(packet, self.port.board.firmware) and (
+                every or packet.destination_node == own
+            ):
                 self.actions += self.port.query_taken(board_now)
 
 

@@ -341,8 +341,8 @@ class EthernetPort:
     @property
     def quiet(self) -> bool:
         """Nothing of an earlier round in flight: no early hub broadcast kept, no hub read
-        waiting."""
-        return not self._stash and not self._pending
+        waiting, no unasked broadcast-read response owed."""
+        return not self._stash and not self._pending and self._broadcast_read is None
 
     def answer_query(self, query: QuadletWriteRequest, sender: HostAddress, now: float) -> Reply:
         """The unasked response to the Ethernet-only ``query`` (received at ``now`` from

@@ -3,10 +3,14 @@
 Two firmware behaviours the engine's :class:`~fw1394.engine.Responder` has no
 notion of live here:
 
-* the broadcast query: a quadlet write to 0x1800 (broadcast, or to node 0)
-  is taken by every board, and each board named in the query's mask then
-  broadcasts its real-time block (a block write to 0xFFFF_FF00_1000, marked
-  with priority 0xA) for the hub to collect (jhu-eth1394.md §4.8);
+* the broadcast query: a quadlet write to 0x1800 (broadcast, or to node 0;
+  before firmware 7 the FireWire host writes node 0 at 0xFFFF_FFFF_000F
+  instead) is taken by every board, and each board named in the query's mask
+  then broadcasts its real-time block (a block write to 0xFFFF_FF00_1000,
+  marked with priority 0xA) for the hub to collect (jhu-eth1394.md §4.8);
+* the "fake broadcast": the FireWire host writes every board's real-time block
+  as one block write to node 0 at 0xFFFF_FFFF_0000, and every board snoops it
+  and takes its own part (§3.1, §3.3 item 7);
 * one clock per board: the Ethernet and FireWire paths of a board share
   one responder, and :class:`ClockedBoard` lets either of them move the
   board's time forward without ever moving it back.
@@ -16,12 +20,19 @@ from __future__ import annotations
 
 import functools
 import struct
+from dataclasses import replace
 from typing import Protocol
 
 from fw1394.boards.qla1.board import Qla1Board
 from fw1394.boards.qla1.regmap import FIREWIRE_DECODING
-from fw1394.boards.qla1.regs import HUB_MEMORY_BASE, HUB_QUERY
-from fw1394.packets import AsyncPacket, BlockWriteRequest, QuadletWriteRequest
+from fw1394.boards.qla1.regs import (
+    FAKE_BROADCAST_OFFSET,
+    HUB_MEMORY_BASE,
+    HUB_QUERY,
+    OLD_QUERY_LAST_FIRMWARE,
+    OLD_QUERY_OFFSET,
+)
+from fw1394.packets import AsyncPacket, BlockWriteRequest, QuadletWriteRequest, Request
 from fw1394.packets.nodeid import BROADCAST_ID, BROADCAST_PHY, LOCAL_BASE, phy_of
 from fw1394.packets.nodeid import node_id as node_id_of
 
@@ -95,12 +106,34 @@ def is_hub_query(packet: AsyncPacket) -> bool:
     return isinstance(packet, QuadletWriteRequest) and _register_address(packet.offset) == HUB_QUERY
 
 
-def query_reaches_every_node(packet: AsyncPacket) -> bool:
-    """The firmware takes a query sent to node 0 as if it were broadcast."""
-    return is_hub_query(packet) and getattr(packet, "destination_node", None) in (
-        0,
-        BROADCAST_PHY,
+def takes_query(packet: AsyncPacket, firmware: int) -> bool:
+    """A broadcast query for a board of ``firmware``: 0x1800, or the old query address."""
+    return is_hub_query(packet) or (
+        isinstance(packet, QuadletWriteRequest)
+        and packet.offset == OLD_QUERY_OFFSET
+        and firmware <= OLD_QUERY_LAST_FIRMWARE
     )
+
+
+def reaches_every_node(packet: AsyncPacket) -> bool:
+    """A request every board takes, whichever node it names: broadcast, or one of the
+    host's node-0 idioms the boards snoop (a query at 0x1800 or the old query address,
+    a block write at the fake-broadcast offset)."""
+    if not isinstance(packet, Request):
+        return False
+    node = packet.destination_node
+    if node == BROADCAST_PHY:
+        return True
+    if node != 0:
+        return False
+    if isinstance(packet, QuadletWriteRequest):
+        return is_hub_query(packet) or packet.offset == OLD_QUERY_OFFSET
+    return isinstance(packet, BlockWriteRequest) and packet.offset == FAKE_BROADCAST_OFFSET
+
+
+def as_snooped(packet: Request) -> Request:
+    """``packet`` as a board it does not name takes it: like a broadcast (no ack)."""
+    return replace(packet, destination_id=BROADCAST_ID)
 
 
 def hub_broadcast(board: Qla1Board, node_id: int) -> BlockWriteRequest | None:

@@ -200,6 +200,21 @@ class HubState:
             memory.append(layout.timing(last_update, max(now - self.query_tick, 0)))
         return memory[:HUB_MEMORY_QUADLETS]
 
+    def read_registers(self, indices: Sequence[int], now: int) -> list[int]:
+        """:meth:`read_register` of each of ``indices`` (a block read), hub memory laid
+        out once."""
+        memory: list[int] | None = None
+        words = []
+        for index in indices:
+            position = index - HUB_MEMORY_BASE
+            if 0 <= position < HUB_MEMORY_QUADLETS:
+                if memory is None:
+                    memory = self.image(now)
+                words.append(memory[position] if position < len(memory) else 0)
+            else:
+                words.append(self.read_register(index, now))
+        return words
+
     def read_register(self, index: int, now: int) -> int:
         """Quadlet at hub-space ``index`` (0x1000..0x1FFF); 0 where nothing is mapped."""
         if index == HUB_QUERY:

@@ -11,6 +11,15 @@ whole write block once per board. Here the rack does the same in one pass: each
 board samples its block once and every hub gets the same frozen copies, and the
 write block is split among the boards in one walk.
 
+Bridge mode (firmware 8 and before) has the same two broadcasts, sent to the
+hub without no-forward: the hub performs each and forwards it onto FireWire,
+where every board performs it too, and after a query every board broadcasts
+its block on FireWire for every other board's hub (N x N again).
+:meth:`RackFastPath.bridge` does that in one pass as well: each board samples
+its block once, every hub keeps the same frozen copies in the order the
+forwarded broadcasts would bring them, and the write block is split once
+(Rev 8) or decoded once per board (Rev 7 and before).
+
 Only the host's ordinary cycle is taken: no-forward set, destination 0xFFFF,
 offsets exactly 0x1800 and 0, a query naming every board of the rack and none
 that a hub is already collecting, boards without planted defects, and ports
@@ -24,20 +33,22 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
 
 from fw1394.boards.qla1.ethernet import EthernetPort, HostAddress, Reply, decode_request
+from fw1394.boards.qla1.rack_member import RackBoard
 from fw1394.boards.qla1.regs import HUB_QUERY
-from fw1394.boards.qla1.rt_blocks import RtWrite, split_rev8_write
+from fw1394.boards.qla1.rt_blocks import (
+    RtWrite,
+    decode_old_write,
+    decode_rev7_write,
+    split_rev8_write,
+)
 from fw1394.packets import BlockWriteRequest, QuadletWriteRequest
 from fw1394.packets.eth1394 import Eth1394Error
 from fw1394.packets.eth1394_fast import split_request
 from fw1394.packets.nodeid import BROADCAST_PHY, LOCAL_BUS
 from fw1394.packets.nodeid import node_id as node_id_of
 from fw1394.transport.eth1394_addresses import MULTICAST_FIRMWARE
-
-if TYPE_CHECKING:
-    from fw1394.boards.qla1.rack import RackBoard
 
 #: The destination of the host's broadcasts: every node of the local bus.
 HOST_BROADCAST = node_id_of(BROADCAST_PHY, LOCAL_BUS)
@@ -56,6 +67,8 @@ class RackFastPath:
         self._ports: list[EthernetPort] = [port for port in ports if port is not None]
         # Before firmware 9 only the hub is cabled: the other boards are FireWire's.
         self._enabled = firmware >= MULTICAST_FIRMWARE and len(self._ports) == len(members)
+        self._bridge = firmware < MULTICAST_FIRMWARE and len(self._ports) == 1
+        self._firmware = firmware
         self._members = list(members)
         self._mask = sum(1 << member.board.board_id for member in members)
         self._hub = next((n for n, port in enumerate(self._ports) if port.ethernet_hub), 0)
@@ -115,3 +128,65 @@ class RackFastPath:
             port.last_host, port.host_id = sender, packet.source_id
             member.responder.advance_clock(now)
             member.board.apply_rt_write(shares.get(member.board.board_id, NO_WRITE))
+
+    # -- bridge mode ----------------------------------------------------------------------
+    def bridge(
+        self, payload: bytes, sender: HostAddress, now: float, resetting: bool
+    ) -> list[tuple[int, Reply]] | None:
+        """Replies to a datagram the hub got in bridge mode; None: not taken.
+
+        Takes the host's broadcast query (naming every board) and broadcast write
+        without no-forward, when the bus is not resetting and nothing is damaged.
+        """
+        if not self._bridge or resetting:
+            return None
+        try:
+            framed = split_request(payload)
+        except Eth1394Error:
+            return None
+        if framed.control.no_forward:
+            return None
+        packet = decode_request(framed.packet)
+        if packet is None or packet.destination_id != HOST_BROADCAST or packet.problems:
+            return None
+        if any(member.board.defects for member in self._members):
+            return None
+        hub = self._ports[0]
+        if type(packet) is QuadletWriteRequest and packet.offset == HUB_QUERY:
+            value = packet.quadlet_data
+            if value & _BOARD_MASK != self._mask or not hub.quiet:
+                return None
+            sequence = value >> 16
+            if any(m.board.hub.sequence == sequence and m.board.hub.board_mask
+                   for m in self._members):  # fmt: skip
+                return None
+            hub.last_host, hub.host_id = sender, packet.source_id
+            for member in self._members:
+                member.responder.advance_clock(now)
+                member.board.write_quadlet(HUB_QUERY, value)
+            blocks = [member.board.hub.blocks[member.board.board_id] for member in self._members]
+            for n, member in enumerate(self._members):
+                # The forwarded broadcasts come in board-index order, each hub's own first.
+                member.board.store_hub_blocks(blocks[:n] + blocks[n + 1 :])
+            return []
+        if type(packet) is BlockWriteRequest and packet.offset == RT_WRITE_OFFSET:
+            hub.last_host, hub.host_id = sender, packet.source_id
+            data = packet.data
+            words = struct.unpack_from(f">{len(data) // 4}I", data)
+            if not words:
+                for member in self._members:
+                    member.responder.advance_clock(now)
+                return []
+            shares = split_rev8_write(words, RT_WRITE_OFFSET) if self._firmware >= 8 else None
+            for member in self._members:
+                board = member.board
+                member.responder.advance_clock(now)
+                if shares is not None:
+                    write = shares.get(board.board_id, NO_WRITE)
+                elif self._firmware == 7:
+                    write = decode_rev7_write(words, board.board_id)
+                else:
+                    write = decode_old_write(words, board.board_id)
+                board.apply_rt_write(write)
+            return []
+        return None

@@ -26,7 +26,11 @@ from fw1394.boards.qla1.regs import (
     HUB_MEMORY_QUADLETS,
     HUB_QUADLETS_WRITTEN,
     HUB_QUERY,
+    PROM_BUFFER_BASE,
     QLA1_HARDWARE_VERSION,
+    QLA_PROM_BUFFER,
+    QLA_PROM_COMMAND,
+    QLA_PROM_RESULT,
     REGISTER_INDEX_MASK,
 )
 from fw1394.boards.qla1.regs import (
@@ -126,8 +130,22 @@ BOARD = Group(
             bits=4,
         ),
         Register("FIRMWARE_VERSION", B.FIRMWARE_VERSION, "ro", None, "`firmware`", "ignored"),
-        Register("PROM_STATUS", B.PROM_STATUS, "ro", 0, "0 (idle)", "ignored"),
-        Register("PROM_RESULT", B.PROM_RESULT, "ro", 0, "0 (idle)", "ignored"),
+        Register(
+            "PROM_STATUS",
+            B.PROM_STATUS,
+            "rw",
+            0,
+            "interface status: 0 (every command done at once)",
+            "M25P16 command: instruction in 31..24, address in 23..0",
+        ),
+        Register(
+            "PROM_RESULT",
+            B.PROM_RESULT,
+            "ro",
+            0,
+            "result of the last PROM command (ID, status, quadlets read or written)",
+            "ignored",
+        ),
         Register(
             "DIGITAL_INPUT",
             B.DIGITAL_INPUT,
@@ -278,6 +296,39 @@ HUB = Group(
     ),
 )
 
+PROM = Group(
+    "prom",
+    (
+        Register(
+            "PROM_PAGE_BUFFER",
+            PROM_BUFFER_BASE,
+            "rw",
+            None,
+            "the 256 bytes the last read-data command fetched",
+            "block write {page-program command, data} programs a page",
+            count=64,
+        ),
+        Register(
+            "QLA_PROM_COMMAND",
+            QLA_PROM_COMMAND,
+            "wo",
+            None,
+            "0",
+            "25AA128 command: read/write byte, read/write block, write enable, status",
+        ),
+        Register("QLA_PROM_RESULT", QLA_PROM_RESULT, "ro", 0, "last byte or status read"),
+        Register(
+            "QLA_PROM_BUFFER",
+            QLA_PROM_BUFFER,
+            "rw",
+            None,
+            "quadlets of the last block read",
+            "quadlets for the next block write",
+            count=16,
+        ),
+    ),
+)
+
 CSR = Group(
     "csr",
     (
@@ -296,7 +347,7 @@ CSR = Group(
 
 REGISTER_MAP = RegisterMap(
     "qla1",
-    (BOARD, CHANNEL, HUB, CSR),
+    (BOARD, CHANNEL, HUB, PROM, CSR),
     decodings={FIREWIRE: FIREWIRE_DECODING, ETHERNET: ETHERNET_DECODING},
     probe="HARDWARE_VERSION",
 )

@@ -144,6 +144,23 @@ HUB_LAST_WRITE = 0x1801
 HUB_QUADLETS_WRITTEN = 0x1802
 HUB_BOARD_INFO = 0x1803
 
+#: The FireWire host's broadcast write: a block write to node 0 here, which every board
+#: takes (offset bits 15..0 are 0: the real-time write block).
+FAKE_BROADCAST_OFFSET = 0xFFFF_FFFF_0000
+#: Where the FireWire host sends the broadcast query (a quadlet write to node 0) when no
+#: board has firmware 7 or later; from 7 on it uses 0x1800.
+OLD_QUERY_OFFSET = 0xFFFF_FFFF_000F
+OLD_QUERY_LAST_FIRMWARE = 6
+
+# -- PROM spaces (fw1394.boards.qla1.prom) ---------------------------------------------
+
+#: The configuration PROM's page buffer (firmware 4 on).
+PROM_BUFFER_BASE = 0x2000
+#: The QLA PROM: command, result, 16-quadlet buffer.
+QLA_PROM_COMMAND = 0x3000
+QLA_PROM_RESULT = 0x3002
+QLA_PROM_BUFFER = 0x3100
+
 #: IP_ADDR value meaning "no address assigned".
 IP_UNASSIGNED = 0xFFFFFFFF
 

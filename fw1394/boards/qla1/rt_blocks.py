@@ -171,9 +171,20 @@ def decode_rev7_write(words: Sequence[int], board_id: int | None) -> RtWrite:
     return RtWrite(tuple(dacs), tuple(control))
 
 
-def decode_old_write(words: Sequence[int]) -> RtWrite:
-    """Firmware 1-6: just the 4 DAC commands, channel 1 first; extra quadlets ignored."""
-    return RtWrite(tuple((n + 1, value) for n, value in enumerate(words[:CHANNELS])))
+def decode_old_write(words: Sequence[int], board_id: int | None) -> RtWrite:
+    """Firmware 1-6: groups of 4 DAC commands, channel 1 first, no control quadlet.
+
+    As at Rev 7, a DAC command is taken only if it carries this board id in bits
+    27..24 (None: every command). Inferred from the host, which tags every DAC
+    command with the board id before Rev 8 and packs only the boards in use into
+    a broadcast write, so a board can only find its group by the tag.
+    """
+    dacs: list[tuple[int, int]] = []
+    for first in range(0, len(words), CHANNELS):
+        for n, value in enumerate(words[first : first + CHANNELS]):
+            if board_id is None or (value >> DAC_BOARD_ID_SHIFT) & 0xF == board_id:
+                dacs.append((n + 1, value))
+    return RtWrite(tuple(dacs))
 
 
 def old_write_feeds_watchdog(write: RtWrite) -> bool:

@@ -11,7 +11,7 @@ import struct
 from types import TracebackType
 from typing import BinaryIO, Self
 
-import fw1394
+from fw1394.version import __version__
 
 # -- pcapng block types and option codes (pcapng draft, section 4) -------------------------
 SHB_TYPE = 0x0A0D0D0A
@@ -98,7 +98,7 @@ class PcapngWriter(_Writer):
         snaplen: int = 0,
     ) -> None:
         super().__init__(stream)
-        application = f"fw1394 {fw1394.__version__}".encode()
+        application = f"fw1394 {__version__}".encode()
         shb_body = struct.pack("<IHHq", BYTE_ORDER_MAGIC, 1, 0, -1)
         shb_body += _option(SHB_USERAPPL, application) + _option(OPT_END, b"")
         idb_body = struct.pack("<HHI", linktype, 0, snaplen)

@@ -16,7 +16,6 @@ from enum import IntEnum
 
 from construct import Struct
 
-from fw1394 import __version__
 from fw1394.capture.analysis.transaction_model import (
     DEFAULT_EXPIRY_NS,
     ERROR_ACKS,
@@ -44,6 +43,7 @@ from fw1394.packets.fields import BitField
 from fw1394.packets.nodeid import BROADCAST_PHY
 from fw1394.packets.phy import PhyPacket, phy_class_of
 from fw1394.packets.tcodes import REQUEST_TCODES, RESPONSE_OF_REQUEST, RESPONSE_TCODES
+from fw1394.version import __version__
 
 #: Field names as the Linux kernel's firewire tracepoints spell them.
 KERNEL_NAMES = {"destination_id": "dst_id", "source_id": "src_id"}

@@ -5,13 +5,19 @@
 // It receives every packet the PHY delivers, checks the header CRC (and the
 // data CRC of block writes), drops damaged packets and packets for other nodes
 // silently, and serves quadlet and block reads and writes through a register
-// bus: reads are concatenated (ack_pending, Hold, response in the same bus
-// tenure), writes are unified (ack_complete). The node's physical ID comes
+// bus: reads are concatenated (ack_pending ended with Hold, then the response
+// after the PHY grants the bus again, the serial bus never released), writes
+// are unified (ack_complete). Every packet ends with Hold or Idle and one more
+// Idle before the link releases CTL and D. The node's physical ID comes
 // from PHY register 0, which the link asks for after reset and which the PHY
 // also sends after every bus reset.
 //
 // Bit conventions inside: ctl[1] is CTL0 and ctl[0] CTL1, so 2'b10 is
 // Receive/Transmit; d[7] is D0, so bytes are in their natural order.
+//
+// Speeds: a packet comes at S100 (two bits a cycle on D0-D1), S200 (four on
+// D0-D3) or S400 (a byte), as its speed code says; the ack and the response go
+// out at the same speed, asked for in the ImmReq.
 //
 // Planted defects (for fuzzing the fuzzer), each a `define:
 //   FW1394_DEFECT_NO_HEADER_CRC   the header CRC is never compared
@@ -20,6 +26,12 @@
 //   FW1394_DEFECT_EARLY_ACK       a block write is acked once its header
 //                                 checks out, before its data CRC is known
 //   FW1394_DEFECT_LONG_HOLD       Hold is kept 60 cycles before a response
+//   FW1394_DEFECT_NO_SECOND_GRANT the response follows its ack's Hold at once,
+//                                 without waiting for the PHY's second Grant
+//   FW1394_DEFECT_NO_CLOSING_IDLE the link releases the interface right after
+//                                 the cycle that ends its packet
+//   FW1394_DEFECT_BAD_CRC_WRITE   a quadlet write whose header CRC fails is
+//                                 performed (and acked ack_data_error)
 module fw1394_link #(
     parameter MAX_BLOCK = 2048,
     parameter [9:0] BUS_ID = 10'h3FF
@@ -30,7 +42,7 @@ module fw1394_link #(
     output reg  [1:0]  ctl_o,
     output reg         ctl_oe,
     input  wire [7:0]  d_i,
-    output reg  [7:0]  d_o,
+    output wire [7:0]  d_o,
     output reg         d_oe,
     output reg         lreq,
     output reg  [5:0]  phy_id,
@@ -58,8 +70,10 @@ module fw1394_link #(
     localparam [3:0] RESP_COMPLETE = 4'h0, RESP_DATA_ERROR = 4'h5;
 `ifdef FW1394_DEFECT_LONG_HOLD
     localparam HOLD_CYCLES = 60;
-`else
+`elsif FW1394_DEFECT_NO_SECOND_GRANT
     localparam HOLD_CYCLES = 2;
+`else
+    localparam HOLD_CYCLES = 1;
 `endif
 
     // ---------------------------------------------------------------- receive
@@ -79,7 +93,16 @@ module fw1394_link #(
     reg [3:0]  st_n;
     reg        need_id;
 
-    wire [7:0]  b = d_i;
+    // Receive speed (0 S100, 1 S200, 2 S400) and the symbols of the byte under way.
+    localparam [1:0] SP100 = 2'd0, SP200 = 2'd1, SP400 = 2'd2;
+    reg [1:0]  rx_speed;
+    reg [5:0]  rx_acc;
+    reg [1:0]  rx_sym;
+    wire       rx_last_sym = rx_speed == SP400 || (rx_speed == SP200 && rx_sym == 2'd1)
+                          || (rx_speed == SP100 && rx_sym == 2'd3);
+    wire [7:0] rx_byte = rx_speed == SP400 ? d_i
+                       : rx_speed == SP200 ? {rx_acc[3:0], d_i[7:4]} : {rx_acc, d_i[7:6]};
+    wire [7:0]  b = rx_state == RX_BYTES ? rx_byte : d_i;
     wire [31:0] q = {sh, b};
     wire [15:0] bq = bcnt[17:2];
     wire [15:0] ndq = (len + 16'd3) >> 2;
@@ -116,17 +139,23 @@ module fw1394_link #(
     wire        early = 1'b0;
 `endif
     wire        is_write = tcode == T_QWRITE || tcode == T_BWRITE;
+`ifdef FW1394_DEFECT_BAD_CRC_WRITE
+    wire        bad_crc_write = tcode == T_QWRITE && bcnt == expected && !header_good;
+`else
+    wire        bad_crc_write = 1'b0;
+`endif
 
     // ---------------------------------------------------------------- transmit
     localparam [3:0] TX_IDLE = 4'd0, TX_LREQ = 4'd1, TX_WAIT = 4'd2, TX_TURN = 4'd3,
                      TX_TURN2 = 4'd4, TX_ACK = 4'd5, TX_HOLD = 4'd6, TX_PKT = 4'd7,
-                     TX_END = 4'd8;
+                     TX_END = 4'd8, TX_CLOSE = 4'd9;
     reg [3:0]  tx_state;
     reg [16:0] lreq_sh;
     reg [4:0]  lreq_n;
     reg        lreq_imm;      // the request under way asks for the bus (else a register read)
     reg [3:0]  ack_code;
     reg        respond;       // a response follows the ack
+    reg        second;        // waiting for (or granted) the bus again for the response
     reg [3:0]  resp_tcode, rcode;
     reg [15:0] resp_dest, resp_len, resp_index;
     reg [5:0]  resp_tl;
@@ -142,9 +171,21 @@ module fw1394_link #(
     reg [15:0] cm_k, cm_n, cm_index, cm_len;
     reg [31:0] cm_qdata;
 
+    // Transmit speed, and the symbol of tx_byte on D this cycle (S100, S200).
+    reg [7:0]  tx_byte;       // the byte being sent
+    reg [1:0]  tx_speed;
+    reg [1:0]  tx_sym;
+    wire       tx_serial = tx_speed != SP400 && ctl_o == CTL_DATA
+                        && (tx_state == TX_ACK || tx_state == TX_PKT);
+    wire       tx_last_sym = !tx_serial || (tx_speed == SP200 ? tx_sym == 2'd1 : tx_sym == 2'd3);
+    wire [7:0] tx_s100 = tx_byte << {tx_sym, 1'b0};
+    wire [7:0] tx_s200 = tx_byte << {tx_sym[0], 2'b00};
+    assign d_o = !tx_serial ? tx_byte
+               : tx_speed == SP200 ? {tx_s200[7:4], 4'h0} : {tx_s100[7:6], 6'h0};
+
     assign busy = cm_active || tx_state != TX_IDLE || rx_state == RX_DECIDE;
 
-    wire [31:0] crc_now = crc32_byte(tx_crc, d_o);
+    wire [31:0] crc_now = crc32_byte(tx_crc, tx_byte);
     wire [15:0] last_q = tx_block ? 16'd5 + resp_ndq : 16'd4;
     wire [15:0] node_id = {BUS_ID, phy_id};
     wire        crc_quadlet = tx_qi == 16'd4 || tx_qi == last_q;
@@ -189,6 +230,11 @@ module fw1394_link #(
         if (rst) begin
             rx_state <= RX_IDLE;
             tx_state <= TX_IDLE;
+            second <= 1'b0;
+            tx_speed <= SP400;
+            tx_sym <= 2'd0;
+            rx_speed <= SP400;
+            rx_sym <= 2'd0;
             phy_id <= 6'd0;
             phy_id_valid <= 1'b0;
             need_id <= 1'b1;
@@ -202,7 +248,7 @@ module fw1394_link #(
             st_n <= 4'd0;
             ctl_o <= CTL_IDLE;
             ctl_oe <= 1'b0;
-            d_o <= 8'h00;
+            tx_byte <= 8'h00;
             d_oe <= 1'b0;
         end else begin
             reg_rd <= 1'b0;
@@ -243,6 +289,9 @@ module fw1394_link #(
                         if (ctl_i != CTL_DATA) rx_state <= RX_IDLE;   // a null packet
                         else if (b != 8'hFF) begin                   // the speed code
                             rx_state <= RX_BYTES;
+                            rx_speed <= b[7:6] == 2'b00 ? SP100 : b[7:4] == 4'b0100 ? SP200
+                                                                                   : SP400;
+                            rx_sym <= 2'd0;
                             bcnt <= 18'd0;
                             hcrc <= 32'hFFFFFFFF;
                             dcrc <= 32'hFFFFFFFF;
@@ -254,7 +303,13 @@ module fw1394_link #(
                     end
                     RX_BYTES: begin
                         if (ctl_i != CTL_DATA) rx_state <= RX_DECIDE;
-                        else begin
+                        else if (!rx_last_sym) begin
+                            // One more symbol of the byte (S100, S200).
+                            rx_acc <= rx_speed == SP200 ? {2'b00, d_i[7:4]}
+                                                        : {rx_acc[3:0], d_i[7:6]};
+                            rx_sym <= rx_sym + 2'd1;
+                        end else begin
+                            rx_sym <= 2'd0;
                             if (bcnt != 18'h3FFFF) bcnt <= bcnt + 18'd1;
                             sh <= q[23:0];
                             if (in_hdr) hcrc <= crc32_byte(hcrc, b);
@@ -284,8 +339,9 @@ module fw1394_link #(
                     RX_DECIDE: begin
                         rx_state <= RX_IDLE;
                         // A packet that comes while the last one is still served is lost.
-                        if (mine && (sound || early) && tx_state == TX_IDLE && !cm_active) begin
-                            if (is_write && !too_long && sound) begin
+                        if (mine && (sound || early || bad_crc_write) && tx_state == TX_IDLE
+                            && !cm_active) begin
+                            if (is_write && !too_long && (sound || bad_crc_write)) begin
                                 cm_active <= 1'b1;
                                 cm_block <= tcode == T_BWRITE;
                                 cm_k <= 16'd0;
@@ -297,12 +353,14 @@ module fw1394_link #(
                             if (!broadcast) begin
                                 tx_state <= TX_LREQ;
                                 lreq_imm <= 1'b1;
-                                // ImmReq at S400: start, 000, 100, stop.
-                                lreq_sh <= {8'b1000_1000, 9'h0};
+                                // ImmReq at the packet's speed: start, 000, speed, stop.
+                                lreq_sh <= {4'b1000, rx_speed, 2'b00, 9'h0};
+                                tx_speed <= rx_speed;
                                 lreq_n <= 5'd8;
                                 respond <= !is_write;
-                                ack_code <= is_write ? (too_long ? ACK_DATA_ERROR : ACK_COMPLETE)
-                                                     : ACK_PENDING;
+                                ack_code <= !is_write ? ACK_PENDING
+                                          : too_long || bad_crc_write ? ACK_DATA_ERROR
+                                          : ACK_COMPLETE;
                                 resp_tcode <= tcode == T_QREAD ? T_QREAD_RESP : T_BREAD_RESP;
                                 tx_block <= tcode == T_BREAD;
                                 rcode <= tcode == T_BREAD && too_long ? RESP_DATA_ERROR
@@ -330,6 +388,9 @@ module fw1394_link #(
             end
 
             // ------------------------------------------------ transmit
+            if (!tx_last_sym) tx_sym <= tx_sym + 2'd1;   // the byte's next symbol
+            else begin
+            tx_sym <= 2'd0;
             case (tx_state)
                 TX_LREQ: begin
                     lreq <= lreq_sh[16];
@@ -343,48 +404,76 @@ module fw1394_link #(
                 end
                 TX_TURN: tx_state <= TX_TURN2;
                 TX_TURN2: begin
-                    tx_state <= TX_ACK;
-                    ctl_o <= CTL_DATA;
                     ctl_oe <= 1'b1;
-                    d_o <= {ack_code, ~ack_code};
                     d_oe <= 1'b1;
-                end
-                TX_ACK: begin
-                    if (respond) begin
+                    if (second) begin
+                        // Granted again: Hold while the response is set up, then send it.
                         tx_state <= TX_HOLD;
                         ctl_o <= CTL_HOLD;
-                        d_o <= 8'h00;
+                        tx_byte <= 8'h00;
                         hold_n <= 7'd0;
-                        // The first data quadlet, read while holding the bus.
+                    end else begin
+                        tx_state <= TX_ACK;
+                        ctl_o <= CTL_DATA;
+                        tx_byte <= {ack_code, ~ack_code};
+                    end
+                end
+                TX_ACK: begin
+                    tx_byte <= 8'h00;
+                    if (respond) begin
+                        // Hold ends the ack: a concatenation request. The first data
+                        // quadlet is read meanwhile.
+                        ctl_o <= CTL_HOLD;
                         reg_addr <= resp_index;
                         reg_len <= resp_len;
                         if (!tx_block) reg_rd <= 1'b1;
                         else if (rcode == RESP_COMPLETE) reg_blk_rd <= 1'b1;
+`ifdef FW1394_DEFECT_NO_SECOND_GRANT
+                        tx_state <= TX_HOLD;
+                        hold_n <= 7'd0;
+`else
+                        tx_state <= TX_CLOSE;
+                        second <= 1'b1;
+`endif
                     end else begin
-                        tx_state <= TX_END;
+                        tx_state <= TX_CLOSE;
                         ctl_o <= CTL_IDLE;
-                        d_o <= 8'h00;
                     end
+                end
+                TX_CLOSE: begin
+                    // One more Idle after the cycle that ended the packet.
+                    if (respond && second) fetched <= reg_rdata;
+`ifdef FW1394_DEFECT_NO_CLOSING_IDLE
+                    tx_state <= TX_IDLE;
+                    ctl_oe <= 1'b0;
+                    d_oe <= 1'b0;
+                    if (second) tx_state <= TX_WAIT;
+`else
+                    tx_state <= TX_END;
+                    ctl_o <= CTL_IDLE;
+`endif
                 end
                 TX_HOLD: begin
                     hold_n <= hold_n + 7'd1;
+`ifdef FW1394_DEFECT_NO_SECOND_GRANT
                     if (hold_n == 7'd0) fetched <= reg_rdata;
+`endif
                     if (hold_n == HOLD_CYCLES - 1) begin
                         tx_state <= TX_PKT;
                         ctl_o <= CTL_DATA;
                         tx_q <= {resp_dest, resp_tl, 2'b00, resp_tcode, 4'h0};
-                        d_o <= resp_dest[15:8];
+                        tx_byte <= resp_dest[15:8];
                         tx_b <= 2'd0;
                         tx_qi <= 16'd0;
                         tx_crc <= 32'hFFFFFFFF;
                     end
                 end
                 TX_PKT: begin
-                    // d_o is on the wire this cycle; tx_q holds it and the bytes after it.
+                    // tx_byte is on the wire this cycle; tx_q holds it and the bytes after it.
                     if (!crc_quadlet) tx_crc <= crc_now;
                     if (tx_b != 2'd3) begin
                         tx_q <= {tx_q[23:0], 8'h00};
-                        d_o <= tx_q[23:16];
+                        tx_byte <= tx_q[23:16];
                         tx_b <= tx_b + 2'd1;
                         // Data quadlet k (k >= 1) is read while quadlet 4 + k goes out.
                         if (tx_b == 2'd0 && tx_block && tx_qi >= 16'd5
@@ -394,12 +483,14 @@ module fw1394_link #(
                         end
                         if (tx_b == 2'd1 && tx_qi >= 16'd5) fetched <= reg_rdata;
                     end else if (tx_qi == last_q) begin
-                        tx_state <= TX_END;
+                        tx_state <= TX_CLOSE;
+                        respond <= 1'b0;
+                        second <= 1'b0;
                         ctl_o <= CTL_IDLE;
-                        d_o <= 8'h00;
+                        tx_byte <= 8'h00;
                     end else begin
                         tx_q <= next_quadlet(tx_qi + 16'd1);
-                        d_o <= next_quadlet(tx_qi + 16'd1) >> 24;
+                        tx_byte <= next_quadlet(tx_qi + 16'd1) >> 24;
                         tx_b <= 2'd0;
                         tx_qi <= tx_qi + 16'd1;
                         // The data CRC starts after the header CRC.
@@ -407,12 +498,14 @@ module fw1394_link #(
                     end
                 end
                 TX_END: begin
-                    tx_state <= TX_IDLE;
+                    // Release; after a concatenation request, wait for the next Grant.
+                    tx_state <= second ? TX_WAIT : TX_IDLE;
                     ctl_oe <= 1'b0;
                     d_oe <= 1'b0;
                 end
                 default: ;
             endcase
+            end
 
             // ------------------------------------------------ write commit
             if (cm_active) begin

@@ -1,0 +1,95 @@
+"""No two modules of fw1394 import each other, directly or round a loop.
+
+The layer contracts in pyproject.toml order packages; this orders modules. The
+graph is grimp's (the one lint-imports uses), which counts every import: at the
+top of a module, inside a function, and under ``if TYPE_CHECKING``.
+"""
+
+from __future__ import annotations
+
+import grimp
+import pytest
+
+# Cycles known when this check was written, each to be broken by moving the shared
+# piece below both modules. The test fails when a new one appears and when one
+# of these is gone (then delete it here).
+KNOWN: set[frozenset[str]] = {
+    # cli.bus's `bus status` labels members with cli.lsnodes, which takes its
+    # options from cli.bus and cli.attach, which takes host_port from cli.bus.
+    frozenset({"fw1394.cli.attach", "fw1394.cli.bus", "fw1394.cli.lsnodes"}),
+}
+
+
+def module_cycles(graph: grimp.ImportGraph) -> set[frozenset[str]]:
+    """The strongly connected groups of more than one module (Tarjan, iteratively)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    on_stack: set[str] = set()
+    stack: list[str] = []
+    found: set[frozenset[str]] = set()
+    for root in sorted(graph.modules):
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph.find_modules_directly_imported_by(root))))]
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        on_stack.add(root)
+        while work:
+            module, edges = work[-1]
+            for target in edges:
+                if target not in index:
+                    index[target] = low[target] = len(index)
+                    stack.append(target)
+                    on_stack.add(target)
+                    work.append(
+                        (target, iter(sorted(graph.find_modules_directly_imported_by(target))))
+                    )
+                    break
+                if target in on_stack:
+                    low[module] = min(low[module], index[target])
+            else:
+                work.pop()
+                if work:
+                    parent = work[-1][0]
+                    low[parent] = min(low[parent], low[module])
+                if low[module] == index[module]:
+                    group = set()
+                    while True:
+                        member = stack.pop()
+                        on_stack.discard(member)
+                        group.add(member)
+                        if member == module:
+                            break
+                    if len(group) > 1:
+                        found.add(frozenset(group))
+    return found
+
+
+@pytest.fixture(scope="module")
+def graph() -> grimp.ImportGraph:
+    return grimp.build_graph("fw1394", cache_dir=None)
+
+
+def test_no_module_cycles_but_the_known_ones(graph: grimp.ImportGraph) -> None:
+    found = module_cycles(graph)
+    assert sorted(map(sorted, found - KNOWN)) == []
+    assert sorted(map(sorted, KNOWN - found)) == [], "a known cycle is gone: delete it"
+
+
+def test_the_search_finds_a_cycle_through_a_function_level_import() -> None:
+    graph = grimp.ImportGraph()
+    for module in ("p", "p.a", "p.b", "p.c", "p.d"):
+        graph.add_module(module)
+    graph.add_import(importer="p.a", imported="p.b")
+    graph.add_import(importer="p.b", imported="p.c")
+    graph.add_import(importer="p.c", imported="p.a")  # the loop closes
+    graph.add_import(importer="p.c", imported="p.d")  # a branch off it
+    assert module_cycles(graph) == {frozenset({"p.a", "p.b", "p.c"})}
+
+
+def test_grimp_counts_function_level_and_type_checking_imports(graph: grimp.ImportGraph) -> None:
+    # fw1394.cli.bus imports cli.lsnodes inside a function only, and
+    # fw1394.boards.qla1.rack_fast names the board and the engine only for typing.
+    assert "fw1394.cli.lsnodes" in graph.find_modules_directly_imported_by("fw1394.cli.bus")
+    imported = graph.find_modules_directly_imported_by("fw1394.boards.qla1.rack_fast")
+    assert "fw1394.boards.qla1.board" in imported
