@@ -22,6 +22,8 @@ pytestmark = [
     pytest.mark.process,
     pytest.mark.netns,
     pytest.mark.slow,
+    # The tour's own steps take minutes: a bus up and down, a 20 s campaign, the bench.
+    pytest.mark.timeout(1200),
     pytest.mark.skipif(
         os.geteuid() != 0 or not shutil.which("unshare") or not shutil.which("ip"),
         reason="needs root, unshare and iproute2 for a network namespace of its own",
@@ -49,6 +51,7 @@ def test_the_tour_runs_as_written(tmp_path: Path) -> None:
         "XDG_RUNTIME_DIR": str(runtime),
     }
     command = ["unshare", "-n", "sh", "-c", "ip link set lo up && exec bash -x tour.sh"]
+    # A hung step fails the test instead of stalling it.
     result = subprocess.run(
         command, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=900
     )
