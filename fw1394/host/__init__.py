@@ -4,12 +4,14 @@
 * middle: :class:`Board` (one node, block transfers) and
   :class:`MultiBoard` (several nodes as one robot);
 * bottom: a :class:`Port` moving quadlets and blocks; :class:`LocalPort`
-  drives in-process board emulators.
+  drives in-process board emulators; :class:`BoardPort` addresses boards
+  by the board ID they announce, resolved again after every bus reset.
 
 :class:`PositionLoop` is a small PD servo on top of :class:`RobotIO`.
 """
 
 from fw1394.host.adapter_port import AdapterPort
+from fw1394.host.addressing import BoardNotOnBusError, BoardPort
 from fw1394.host.board import Board, BoardError
 from fw1394.host.control import PdGains, PositionLoop, Trajectory
 from fw1394.host.multiboard import MultiBoard
@@ -20,6 +22,8 @@ __all__ = [
     "AdapterPort",
     "Board",
     "BoardError",
+    "BoardNotOnBusError",
+    "BoardPort",
     "LocalPort",
     "ManualClock",
     "MultiBoard",

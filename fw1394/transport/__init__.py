@@ -23,7 +23,7 @@ from __future__ import annotations
 from typing import Any
 
 from fw1394.transport.adapter_protocol import Op
-from fw1394.transport.bus_host import BusError, BusHost, TransactionTimeout
+from fw1394.transport.bus_host import BusError, BusHost, StaleGenerationError, TransactionTimeout
 from fw1394.transport.bus_port import BusPort
 from fw1394.transport.config import BusConfig, BusNameError
 from fw1394.transport.eth1394_addresses import Endpoint
@@ -40,6 +40,7 @@ __all__ = [
     "LaunchError",
     "LaunchedBus",
     "Op",
+    "StaleGenerationError",
     "TransactionTimeout",
     "open_bus",
 ]

@@ -38,8 +38,9 @@ served here too, as a PC's kernel serves requests to its own node.
 
 from __future__ import annotations
 
+from collections.abc import Hashable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Protocol
 
 from fw1394.engine.responder import decode_received
 from fw1394.packets import (
@@ -61,7 +62,23 @@ from fw1394.transport.link import ACK, ACK_BYTES, ASYNC_PACKET
 from fw1394.transport.wire import ACK_PAYLOAD, FrameHeader
 
 if TYPE_CHECKING:
-    from fw1394.transport.adapter import Adapter, Client
+    from fw1394.transport.bus_host import BusHost
+
+#: A connected program, as the adapter keeps it: only passed back to the adapter here.
+Client = Hashable
+
+
+class Adapter(Protocol):
+    """What the node's services use of the adapter that owns them (the adapter
+    imports this module, so it is named here by what it does, not imported)."""
+
+    @property
+    def host(self) -> BusHost: ...
+
+    @property
+    def clients(self) -> Mapping[Any, Client]: ...
+
+    def _reply(self, client: Any, reply: Reply) -> None: ...
 
 #: Request tcodes a node answers (the bus's other async tcodes are responses,
 #: cycle starts and stream packets).
@@ -302,4 +319,4 @@ class NodeServices:
             client = push.owner
             if client in self.adapter.clients.values():
                 reply = Reply(push.number, Status.ok, data=push.data)
-                self.adapter._reply(client, reply)  # type: ignore[arg-type]
+                self.adapter._reply(client, reply)

@@ -10,21 +10,35 @@ outstanding reads to one node, with 5 % duplication, about 1 read in 170 got
 another read's data that way.) A copy is the same datagram, though: same
 sender member and same frame sequence number. :class:`RecentFrames` remembers
 the latest sequence numbers of each sender and :class:`HostLink` drops a
-frame it has taken before, counting it in :attr:`HostLink.copies`. A keyed
-bus drops copies before this (as replays); this is the insecure bus's guard.
+frame it has taken before, counting it in :attr:`HostLink.copies`.
+
+A copy of a *request* draws a second answer, a frame of its own. Its ack
+names the request's frame sequence number, though, as every ack does: the
+link remembers the sequence number each label last went out in and drops an
+ack (with any response behind it) that names another, counting it in
+:attr:`HostLink.stale_acks`. A split response to a copied request carries
+nothing to tell it apart: only the engine's label holds guard against it.
+A keyed bus drops copies before all this (as replays); this is the insecure
+bus's guard.
 """
 
 from __future__ import annotations
 
 from fw1394.engine import Requester
-from fw1394.transport.link import RequesterLink, Send
+from fw1394.packets.fast import encode_packet
+from fw1394.packets.nodeid import BROADCAST_ID, phy_of
+from fw1394.transport.link import ACK, ACK_SIZE, ASYNC_PACKET, RequesterLink, Send
 from fw1394.transport.station import Station
-from fw1394.transport.wire import FrameHeader
+from fw1394.transport.wire import ACK_PAYLOAD, FrameHeader
+
+_unpack_ack = ACK_PAYLOAD.unpack_from
 
 #: Sequence numbers remembered per sender: a copy later than this many newer frames
 #: of the same sender is taken for a copy too (it can only be very late).
 WINDOW = 4096
 _MASK = (1 << WINDOW) - 1
+_SEQUENCE = 0xFFFFFFFF
+_HALF = 1 << 31
 
 
 class RecentFrames:
@@ -43,10 +57,12 @@ class RecentFrames:
             self._senders[sender] = (sequence, 1)
             return False
         highest, taken = known
-        if sequence > highest:
-            self._senders[sender] = (sequence, (taken << (sequence - highest) | 1) & _MASK)
+        # Sequence numbers are 32 bits and wrap: compared as serial numbers (RFC 1982).
+        ahead = (sequence - highest) & _SEQUENCE
+        if 0 < ahead < _HALF:
+            self._senders[sender] = (sequence, (taken << ahead | 1) & _MASK)
             return False
-        back = highest - sequence
+        back = (highest - sequence) & _SEQUENCE
         if back >= WINDOW or taken >> back & 1:
             return True
         self._senders[sender] = (highest, taken | 1 << back)
@@ -62,11 +78,29 @@ class HostLink(RequesterLink):
     def __init__(self, requester: Requester, send: Send, station: Station | None = None) -> None:
         super().__init__(requester, send, station)
         self.recent = RecentFrames()
-        #: Second copies dropped.
-        self.copies = 0
+        #: (physical ID << 6 | label) -> the frame sequence number it last went out in.
+        self.asked: dict[int, int] = {}
+        #: Second copies dropped, and acks of a request frame that is not the label's.
+        self.copies = self.stale_acks = 0
 
     def receive(self, header: FrameHeader, payload: bytes, now: float) -> None:
         if self.recent.again(header.sender, header.sequence):
             self.copies += 1
             return
         super().receive(header, payload, now)
+
+    def take(self, header: FrameHeader, payload: bytes, now: float) -> None:
+        if header.kind == ACK and len(payload) >= ACK_SIZE:
+            _, tlabel, _, acked = _unpack_ack(payload)
+            if self.asked.get((header.sender_phy & 0x3F) << 6 | tlabel) != acked:
+                self.stale_acks += 1  # the answer to a copy of an earlier request
+                return
+        super().take(header, payload, now)
+
+    def flush(self) -> None:
+        send, asked = self.send, self.asked
+        for packet in self.requester.packets_to_send():
+            destination = phy_of(getattr(packet, "destination_id", BROADCAST_ID))
+            sequence = send(ASYNC_PACKET, destination, encode_packet(packet))
+            if isinstance(sequence, int):
+                asked[destination << 6 | getattr(packet, "tlabel", 0)] = sequence

@@ -147,7 +147,8 @@ class Express:
         me = solo.requester.node_id
         phy = destination & 0x3F
         wire, packet, response_class = kind
-        station.send(ASYNC_PACKET, phy, wire(destination, label, me, *values))
+        sequence = station.send(ASYNC_PACKET, phy, wire(destination, label, me, *values))
+        self.link.asked[phy << 6 | label] = sequence  # whose ack is the one to take
         frame = station.receive()
         now = _clock()  # when the frame arrived, as in the link's turn
         if frame is not None:

@@ -330,6 +330,26 @@ def test_watchdog_timeout_is_exact_on_counter_edges(board: Snake2010Board) -> No
     assert not board.read_quadlet(STATUS) & 1
 
 
+@pytest.mark.parametrize("phase", [0, 1, 128, 255])
+@pytest.mark.parametrize("period", [1, 2, 37])
+def test_watchdog_fires_on_the_prescaler_edge_after_period_counts(
+    board: Snake2010Board, phase: int, period: int
+) -> None:
+    # Section 6.3: the counter steps on the edges of a free-running divide-by-256
+    # prescaler and is cleared by the write, so a write at tick t times out at
+    # (floor(t / 256) + P) * 256: not one tick earlier, whatever the write's phase.
+    written = 40 * WATCHDOG_UNIT + phase
+    board.set_time(written)
+    board.write_quadlet(WATCHDOG, period)
+    enable(board, 0b1)
+    deadline = (written // WATCHDOG_UNIT + period) * WATCHDOG_UNIT
+    board.set_time(deadline - 1)
+    assert board.read_quadlet(STATUS) & 1, "fired before the prescaler edge"
+    board.set_time(deadline)
+    status = board.read_quadlet(STATUS)
+    assert not status & 1 and status & 1 << 23, "did not fire on the prescaler edge"
+
+
 def test_longest_watchdog_period_is_about_a_third_of_a_second(board: Snake2010Board) -> None:
     board.write_quadlet(WATCHDOG, 0xFFFF)
     enable(board, 0b1)

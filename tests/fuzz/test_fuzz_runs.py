@@ -139,8 +139,11 @@ def test_worker_seeds_and_shares() -> None:
     assert workers.worker_settings(remote, 2, 3).target == "udp:127.0.0.1:11402"
 
 
-def test_a_remote_target_needs_one_node_per_worker(capsys: pytest.CaptureFixture[str]) -> None:
-    assert fuzz("run", "udp:127.0.0.1:9", "--jobs", "2") == 2
+def test_a_remote_target_needs_one_node_per_worker(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    findings = str(tmp_path / "findings")
+    assert fuzz("run", "udp:127.0.0.1:9", "--jobs", "2", "--findings", findings) == 2
     assert "{worker}" in capsys.readouterr().err
 
 

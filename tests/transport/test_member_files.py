@@ -35,6 +35,7 @@ def exited_pid() -> int:
     return child.pid
 
 
+@pytest.mark.process
 def test_files_of_exited_processes_are_removed_when_read(tmp_path: Path) -> None:
     folder = tmp_path / MEMBERS_DIR
     folder.mkdir()

@@ -26,6 +26,12 @@ from collections.abc import Callable, Sequence
 from fw1394.boards.qla1 import rt_blocks as rt
 from fw1394.boards.qla1.channels import MotorChannel
 from fw1394.boards.qla1.config_rom import CSR_BYTE_MASK, CsrSpace, build_config_rom, in_csr_window
+from fw1394.boards.qla1.dallas import BUFFER_BASE as DALLAS_BUFFER_BASE
+from fw1394.boards.qla1.dallas import FIRST_FIRMWARE as DALLAS_FIRST_FIRMWARE
+from fw1394.boards.qla1.dallas import Ds2505
+from fw1394.boards.qla1.eth_phy import MdioWindow, mdio_channel
+from fw1394.boards.qla1.eth_switch import FIRST_FIRMWARE as SWITCH_FIRST_FIRMWARE
+from fw1394.boards.qla1.eth_switch import switch_data, switch_index
 from fw1394.boards.qla1.hub import HubBlock, HubState, reporting_board
 from fw1394.boards.qla1.phy_window import PhyInterface
 from fw1394.boards.qla1.prom import ConfigProm, qla_prom_with_serial, with_fpga_serial
@@ -114,6 +120,10 @@ class Qla1Board:
         # The PROMs keep their contents through a reboot.
         self.prom = with_fpga_serial(ConfigProm(), f"FPGA 1394-{board_id:02d}")
         self.qla_prom = qla_prom_with_serial(f"QLA 1394-{board_id:02d}")
+        # The instrument's 1-wire memory (an instrument stays plugged in through a reboot).
+        self.dallas = Ds2505()
+        # FPGA V3's two Ethernet PHYs, by channel (1, 2); the chips outlive a reboot too.
+        self.mdio = {channel: MdioWindow() for channel in (1, 2)} if fpga_version == 3 else {}
         self._power_up()
         # Readers look attributes up on each call, so they survive a reboot's fresh state.
         self._board_readers = self._board_register_readers()
@@ -279,6 +289,14 @@ class Qla1Board:
             if index == QLA_PROM_RESULT:
                 return self.qla_prom.result
             return self.qla_prom.buffer_read(index - QLA_PROM_BUFFER)
+        if space == Space.ETH and (window := self.mdio.get(mdio_channel(index) or 0)):
+            return window.read()
+        if space == Space.ETH and self.mdio and self.firmware >= SWITCH_FIRST_FIRMWARE:
+            position = switch_index(index)
+            if position is not None:
+                return switch_data(position)
+        if space == Space.DALLAS and self.firmware >= DALLAS_FIRST_FIRMWARE:
+            return self.dallas.buffer_read(index - DALLAS_BUFFER_BASE)
         return self._unmapped(index)
 
     def _write_index(self, index: int, value: int) -> None:
@@ -287,6 +305,8 @@ class Qla1Board:
             self._write_main(index, value)
         elif space == Space.HUB and index == HUB_QUERY:
             self._broadcast_query(value)
+        elif space == Space.ETH and (window := self.mdio.get(mdio_channel(index) or 0)):
+            window.write(value)
         elif space == Space.PROM_QLA:
             if index == QLA_PROM_COMMAND:
                 self.qla_prom.command(value)
@@ -335,13 +355,17 @@ class Qla1Board:
             BoardRegister.ETH_STATUS: lambda: ETH_STATUS_BY_FPGA_VERSION[self.fpga_version],
             BoardRegister.PROM_STATUS: self.prom.interface_status,
             BoardRegister.PROM_RESULT: lambda: self.prom.result,
+            BoardRegister.DALLAS_STATUS: self._dallas_status,
             BoardRegister.GIT_DESCRIPTION: lambda: self.git_description,
         }
 
     def _read_board_register(self, register: int) -> int:
         reader = self._board_readers.get(register)
-        # Dallas and I/O-expander interfaces are not modelled: they read as idle (0).
+        # The I/O-expander interface is not modelled: it reads as idle (0).
         return reader() if reader is not None else 0
+
+    def _dallas_status(self) -> int:
+        return self.dallas.status() if self.firmware >= DALLAS_FIRST_FIRMWARE else 0
 
     def _hardware_version(self) -> int:
         if DEFECT_HW_VERSION_SWAPPED in self.defects:
@@ -359,6 +383,8 @@ class Qla1Board:
             self.phy.write_request(value)
         elif register == BoardRegister.PROM_STATUS:
             self.prom.command(value, self._now)
+        elif register == BoardRegister.DALLAS_STATUS and self.firmware >= DALLAS_FIRST_FIRMWARE:
+            self.dallas.control(value)
         elif register == BoardRegister.FW_PHY_RESP:
             self.phy.write_response(value)
         elif register == BoardRegister.WATCHDOG:

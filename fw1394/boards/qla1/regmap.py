@@ -172,7 +172,14 @@ BOARD = Group(
             "V1 0x00000000, V2 0x80000000, V3 0x40B00000",
             "ignored (no error flags to clear)",
         ),
-        Register("DALLAS_STATUS", B.DALLAS_STATUS, "ro", 0, "0", "ignored"),
+        Register(
+            "DALLAS_STATUS",
+            B.DALLAS_STATUS,
+            "rw",
+            None,
+            "firmware ≥ 7: DS2505 status (enabled, reset answered, family 0x0B once read)",
+            "`address << 16 \\| 2` reads 256 bytes into 0x6000, `3` the next 256",
+        ),
         Register("IO_EXPANDER", B.IO_EXPANDER, "ro", 0, "0", "ignored"),
         Register(
             "GIT_DESCRIPTION",
@@ -329,6 +336,52 @@ PROM = Group(
     ),
 )
 
+DALLAS = Group(
+    "dallas",
+    (
+        Register(
+            "DALLAS_BUFFER",
+            0x6000,
+            "ro",
+            None,
+            "firmware ≥ 7: the 256 bytes of the DS2505 the last control word fetched",
+            count=64,
+        ),
+    ),
+)
+
+ETHERNET_PHYS = Group(
+    "ethernet",
+    (
+        Register(
+            "ETH_SWITCH_DATA",
+            0x40A0,
+            "ro",
+            None,
+            "firmware ≥ 9, FPGA V3: the switch's status block, 'ESW0' first (0 before)",
+            count=32,
+        ),
+        Register(
+            "MDIO_PHY1",
+            0x41A0,
+            "rw",
+            0,
+            "`{busy 26..24 (0), last register 20..16, its data 15..0}`",
+            "clause-22 frame: start, operation (10 read, 01 write), PHY address, register, data",
+            label="MDIO (PHY1, FPGA V3)",
+        ),
+        Register(
+            "MDIO_PHY2",
+            0x42A0,
+            "rw",
+            0,
+            "as PHY1",
+            "as PHY1",
+            label="MDIO (PHY2, FPGA V3)",
+        ),
+    ),
+)
+
 CSR = Group(
     "csr",
     (
@@ -347,7 +400,7 @@ CSR = Group(
 
 REGISTER_MAP = RegisterMap(
     "qla1",
-    (BOARD, CHANNEL, HUB, PROM, CSR),
+    (BOARD, CHANNEL, HUB, PROM, DALLAS, ETHERNET_PHYS, CSR),
     decodings={FIREWIRE: FIREWIRE_DECODING, ETHERNET: ETHERNET_DECODING},
     probe="HARDWARE_VERSION",
 )
