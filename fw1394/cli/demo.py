@@ -22,7 +22,7 @@ wake-ups and preemptions per cycle (from /proc).
 
 examples:
   fw1394 demo
-  fw1394 demo --seconds 10 --plot run.png
+  fw1394 demo --duration 10 --plot run.png
   fw1394 demo --json --no-plot
 """
 
@@ -35,7 +35,14 @@ def register(subparsers: Any) -> None:
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("--seconds", type=float, default=3.0, help="loop duration (default 3)")
+    parser.add_argument(
+        "--duration",
+        "--seconds",
+        dest="seconds",
+        type=float,
+        default=3.0,
+        help="loop duration in seconds (default 3; --seconds is the older spelling)",
+    )
     parser.add_argument("--rate", type=float, default=1000.0, help="loop rate in Hz (default 1000)")
     parser.add_argument(
         "--plot",
@@ -80,7 +87,7 @@ def _progress(result: Any, elapsed: float) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if not 0 < args.seconds <= 3600:
-        raise CliError(f"--seconds {args.seconds}: use a duration between 0 and 3600 s")
+        raise CliError(f"--duration {args.seconds}: use a duration between 0 and 3600 s")
     if not 10 <= args.rate <= 10000:
         raise CliError(f"--rate {args.rate}: use 10 to 10000 Hz")
     for wanted, path, option in (
@@ -158,7 +165,10 @@ def _print_summary(numbers: dict[str, Any]) -> None:
             f"  {name:24} {cost['cpu_us']:7.1f} us CPU  {cost['wakeups']:5.2f} wake-ups  "
             f"{cost['preemptions']:5.2f} preemptions per cycle"
         )
-    print(f"watchdog trips    {numbers['watchdog_trips']}   bus resets {numbers['bus_resets']}")
+    print(
+        f"watchdog trips    {numbers['watchdog_trips']}   "
+        f"bus resets during the loop {numbers['bus_resets']}"
+    )
     print("tracking RMS      " + " ".join(f"{e:.0f}" for e in rms) + " counts (axes 1-11)")
     if "plot" in numbers:
         print(f"plot              {numbers['plot']}")
@@ -173,7 +183,8 @@ def _print_traffic(path: str, stats: dict[str, Any]) -> None:
     records = stats.get("records", {})
     print(
         f"capture           {path}: {stats.get('records_read', 0)} records "
-        f"({records.get('async_packet', 0)} packets, {stats.get('bus_resets', 0)} bus resets), "
+        f"({records.get('async_packet', 0)} packets, {stats.get('bus_resets', 0)} bus resets "
+        "with the members' joins), "
         f"fw1394 dissect {path} --transactions for every transaction"
     )
     kinds = ", ".join(f"{n} {k}" for k, n in stats.get("transactions", {}).items())

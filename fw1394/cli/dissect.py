@@ -148,6 +148,19 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="with -T fields: separator=C (default a tab), header=y",
     )
     parser.add_argument(
+        "-z",
+        action="append",
+        default=[],
+        dest="statistics",
+        metavar="STAT",
+        choices=("expert", "conv", "latency", "fw1394.latency"),
+        help="as tshark -z, after the packets: expert (problems), conv (node to node), "
+        "latency (transaction times by kind and node); repeat",
+    )
+    parser.add_argument(
+        "-q", "--quiet", action="store_true", help="no packet rows (with -z: only statistics)"
+    )
+    parser.add_argument(
         "-w",
         "--write",
         metavar="FILE",
@@ -314,6 +327,8 @@ def run(args: argparse.Namespace) -> int:
         hex_dump=args.hex,
         flush_each=args.line_buffered,
         writer=writer,
+        statistics=tuple("latency" if z == "fw1394.latency" else z for z in args.statistics),
+        quiet=args.quiet,
         verbose=args.verbose,
         nodes=frozenset(args.node),
         tcodes=tcode_values(args.tcode),

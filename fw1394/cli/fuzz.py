@@ -104,7 +104,13 @@ def add_run_options(run: argparse.ArgumentParser) -> None:
     limits = run.add_argument_group("limits and reproducibility")
     limits.add_argument("--seed", type=integer, default=0, help="makes a run repeatable")
     limits.add_argument("--max-cases", type=integer, default=None, help="stop after N cases")
-    limits.add_argument("--duration", type=float, default=None, help="stop after S seconds")
+    limits.add_argument(
+        "--duration",
+        type=float,
+        default=None,
+        help="stop fuzzing after S seconds; shrinking the findings comes after it, up to "
+        "--shrink-budget replays each (0: none, the run stays inside S)",
+    )
     limits.add_argument(
         "--engine",
         choices=("fast", "hypothesis"),
@@ -171,7 +177,12 @@ def add_run_options(run: argparse.ArgumentParser) -> None:
     saved.add_argument(
         "--merge", action="store_true", help="keep the findings in DIR, add new signatures"
     )
-    out.add_argument("--shrink-budget", type=integer, default=300, help="replays per finding")
+    out.add_argument(
+        "--shrink-budget",
+        type=integer,
+        default=300,
+        help="replays per finding when shrinking, after --duration or --max-cases (default 300)",
+    )
     out.add_argument("--history", type=integer, default=512, help="packets kept per finding")
     out.add_argument("--json", action="store_true", help="print the report as JSON")
     out.add_argument(

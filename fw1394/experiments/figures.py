@@ -83,11 +83,16 @@ def _quadlets(pyplot: Any, run: QuadletRun) -> Any:
             fontsize=8,
         )
         histogram.hist(values[shown], bins=120, orientation="horizontal", color=colour)
-        for band in find_bands(samples):
+        bands = find_bands(samples)
+        low = float(values[shown].min()) if shown.any() else 0.0
+        # Labels of bands a few µs apart would print over each other: each goes at
+        # least a line's height above the one below it, the dashed line stays put.
+        places = spread([band.center_us for band in bands], LABEL_GAP * max(top - low, 1.0))
+        for band, place in zip(bands, places, strict=True):
             histogram.axhline(band.center_us, color="black", linewidth=0.8, linestyle="--")
             histogram.annotate(
                 f"{band.center_us:.0f} µs, {band.share:.0%}",
-                (0.98, band.center_us),
+                (0.98, place),
                 xycoords=("axes fraction", "data"),
                 ha="right",
                 va="bottom",
@@ -97,6 +102,23 @@ def _quadlets(pyplot: Any, run: QuadletRun) -> Any:
         histogram.xaxis.set_major_locator(MaxNLocator(nbins=3, integer=True))
     axes[1][0].set_xlabel("iteration")
     return figure
+
+
+#: The least distance between two band labels, as a share of the axis's height.
+LABEL_GAP = 0.07
+
+
+def spread(positions: list[float], gap: float) -> list[float]:
+    """``positions`` moved up as little as needed for ``gap`` between neighbours,
+    in their own order (the lowest stays where it is)."""
+    order = sorted(range(len(positions)), key=lambda i: positions[i])
+    placed = list(positions)
+    previous: float | None = None
+    for index in order:
+        if previous is not None and placed[index] < previous + gap:
+            placed[index] = previous + gap
+        previous = placed[index]
+    return placed
 
 
 def _blocks(pyplot: Any, run: BlockRun, digest: dict[str, Any]) -> Any:

@@ -98,10 +98,20 @@ class FindingsExist(UsageError):
 
 
 def holds_findings(directory: Path) -> bool:
-    """``directory`` holds reproducers or a report of an earlier run."""
+    """``directory`` holds reproducers, or the report of an earlier run that found
+    something. The report of a run that found nothing is no finding to protect."""
     if not directory.is_dir():
         return False
-    return (directory / "report.json").exists() or any(directory.glob(_PATTERN))
+    if any(directory.glob(_PATTERN)):
+        return True
+    report = directory / "report.json"
+    if not report.exists():
+        return False
+    try:
+        found = json.loads(report.read_text(encoding="utf-8")).get("findings")
+    except (OSError, ValueError, AttributeError):
+        return True  # a report that cannot be read is kept, not overwritten
+    return bool(found)
 
 
 def merged(*runs: list[Finding]) -> list[Finding]:

@@ -244,7 +244,7 @@ def test_capture_of_a_live_virtual_bus(tmp_path: Path, unique_bus_name: str) -> 
     assert capture.returncode == 0, err
     assert "read_quadlet_request" in out and "packets written" in err
     result = fw1394("dissect", str(path), "--transactions")
-    assert result.returncode == 0 and "QR fffff0000400" in result.stdout
+    assert result.returncode == 0 and "QR 0xfffff0000400" in result.stdout
 
 
 def test_count_counts_packets_and_keeps_the_last_ones_ack(

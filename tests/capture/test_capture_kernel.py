@@ -93,7 +93,7 @@ def test_ohci_debug_log_from_dmesg() -> None:
     # "AR evt_bus_reset" and "2 selfIDs" announce the same reset: one record each.
     assert [r.generation for r in found if r.record_type == RecordType.bus_reset] == [2, 3]
     text = run("firewire-ohci-dmesg.txt", "transactions")
-    assert "QR fffff0000400 [config ROM+0x0]  ack_pending -> resp_complete" in text
+    assert "QR 0xfffff0000400 [config ROM+0x0]  ack_pending -> resp_complete" in text
     assert "[no_ack]" in text and "unsolicited" in text
 
 

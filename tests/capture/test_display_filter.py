@@ -92,7 +92,7 @@ def batches(draw: st.DrawFn) -> tuple[dict[str, tuple[np.ndarray, ...]], int]:
     return columns, rows
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=150, deadline=None)
 @given(trees, batches())
 def test_columnar_evaluation_equals_the_per_row_reference(
     tree: df.Node, batch: tuple[dict[str, tuple[np.ndarray, ...]], int]
@@ -104,7 +104,7 @@ def test_columnar_evaluation_equals_the_per_row_reference(
         assert bool(fast[row]) == df.evaluate_row(tree, values), (df.to_text(tree), values)
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=150, deadline=None)
 @given(trees)
 def test_text_parses_back_to_the_same_tree(tree: df.Node) -> None:
     text = df.to_text(tree)
@@ -318,12 +318,12 @@ TRANSACTION_FILTERS = [
     ("latency > 20us", lambda o: get(o, "latency_ns") > 20_000),
     (
         "tcode == 0 && rcode != 0",
-        lambda o: 0 in (get(o, "tcode"), get(o, "resp_tcode")) and get(o, "rcode") > 0,
+        lambda o: 0 in (get(o, "tcode"), get(o, "response_tcode")) and get(o, "rcode") > 0,
     ),
     ("!latency || attempts > 1", lambda o: get(o, "latency_ns") < 0 or get(o, "attempts") > 1),
     (
         "tcode == read_quadlet_response && src == 0xffc4",
-        lambda o: get(o, "resp_tcode") == 6 and get(o, "requester") == 0xFFC4,
+        lambda o: get(o, "response_tcode") == 6 and get(o, "requester") == 0xFFC4,
     ),
     (
         "latency <= 0.019ms && dst != 0xffc1",
@@ -337,9 +337,9 @@ def test_transaction_filter_equals_filtering_by_hand(
     simulated: Path, capsys: pytest.CaptureFixture[str], expression: str, by_hand: object
 ) -> None:
     everything = json_rows(capsys, str(simulated), "--transactions")
-    wanted = [(o["frame"], o.get("resp_frame")) for o in everything if by_hand(o)]  # type: ignore[operator]
+    wanted = [(o["frame"], o.get("response_frame")) for o in everything if by_hand(o)]  # type: ignore[operator]
     shown = json_rows(capsys, str(simulated), "--transactions", "-Y", expression)
-    assert [(o["frame"], o.get("resp_frame")) for o in shown] == wanted and wanted
+    assert [(o["frame"], o.get("response_frame")) for o in shown] == wanted and wanted
 
 
 def test_eth1394_sample_filters(eth1394: Path, capsys: pytest.CaptureFixture[str]) -> None:

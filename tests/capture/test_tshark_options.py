@@ -129,3 +129,26 @@ def test_option_errors_are_one_line(
     assert main(["dissect", str(trace), *arguments]) == 2
     out, err = capsys.readouterr()
     assert out == "" and len(err.splitlines()) == 1 and message in err
+
+
+def test_statistics_after_the_packets(trace: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """-q -z: the packets of each node pair counted, the latency and the problems,
+    against the same trace read packet by packet."""
+    rows = dissect(capsys, str(trace), "--json").splitlines()
+    packets = [json.loads(row) for row in rows]
+    pairs: dict[str, int] = {}
+    for packet in packets:
+        if "source_id" in packet and "tcode" in packet:
+            key = f"{packet['source_id']:04x} -> {packet['destination_id']:04x}"
+            pairs[key] = pairs.get(key, 0) + 1
+    text = dissect(capsys, str(trace), "-q", "-z", "conv", "-z", "latency", "-z", "expert")
+    assert "read_quadlet_response" not in text  # -q: no packet rows
+    counted = {}
+    for line in text.splitlines():
+        found = re.fullmatch(r"\s+(\S+ -> \S+)\s+(\d+)", line)
+        if found:
+            counted[found.group(1)] = found.group(2)
+    assert {key: int(n) for key, n in counted.items()} == pairs
+    assert "latency (all): n=" in text and "Expert information" in text
+    stats = json.loads(dissect(capsys, str(trace), "--stats", "--json"))
+    assert f"total                        {stats['errors']['total']}" in text

@@ -102,14 +102,14 @@ def test_links_agree_with_the_transaction_view(
     answered = [t for t in transactions if "latency_ns" in t]
     assert len(answered) > 200 and any(t["attempts"] != 1 for t in answered)
     for t in answered:
-        request, response = frames[int(str(t["frame"]))], frames[int(str(t["resp_frame"]))]
+        request, response = frames[int(str(t["frame"]))], frames[int(str(t["response_frame"]))]
         assert int(response["fw1394.request_in"]) == t["frame"], t
         assert round(float(response["fw1394.response_time"]) * 1e9) == t["latency_ns"], t
         assert int(response["fw1394.attempts"]) == t["attempts"], t
-        assert int(request["fw1394.response_in"]) == t["resp_frame"], t
+        assert int(request["fw1394.response_in"]) == t["response_frame"], t
     linked = {n for n, f in frames.items() if "fw1394.request_in" in f}
-    assert linked == {t["resp_frame"] for t in answered}
-    unsolicited = {t["resp_frame"] for t in transactions if t["kind"] == "unsolicited"}
+    assert linked == {t["response_frame"] for t in answered}
+    unsolicited = {t["response_frame"] for t in transactions if t["kind"] == "unsolicited"}
     assert unsolicited and with_message(frames, "Response without a request") == unsolicited
     unanswered = {t["frame"] for t in transactions if "no_response" in str(t["flags"])}
     assert unanswered and with_message(frames, "No response in this capture") == unanswered
@@ -261,7 +261,7 @@ def test_a_response_of_the_wrong_tcode_is_flagged_like_fw1394_flags_it(
     path = tmp_path / "mismatch.pcapng"
     write_trace(str(path), records)
     flagged = {
-        int(str(t["resp_frame"]))
+        int(str(t["response_frame"]))
         for t in fw1394_json(capsys, str(path), "--transactions")
         if "tcode_mismatch" in str(t["flags"])
     }

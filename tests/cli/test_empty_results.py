@@ -120,3 +120,19 @@ def test_regdocs_says_what_it_found(tmp_path: Path) -> None:
     )
     assert result.returncode == 0 and "no register tables" in result.stdout
     assert plain.read_text() == "# no tables here\n"
+
+
+def test_a_report_that_found_nothing_is_no_finding_to_protect(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    findings = tmp_path / "findings"
+    argv = ["fuzz", "run", "inproc:memory", "--max-cases", "30", "--findings", str(findings)]
+    assert main(argv) == 0
+    assert '"findings": []' in (findings / "report.json").read_text()
+    capsys.readouterr()
+    assert main(argv) == 0  # a second run may write over an empty report
+    # A report that lists findings is protected, as before.
+    report = findings / "report.json"
+    report.write_text(report.read_text().replace('"findings": []', '"findings": [{"x": 1}]'))
+    assert main(argv) == 2
+    assert "already holds findings" in capsys.readouterr().err

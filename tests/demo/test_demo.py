@@ -69,12 +69,13 @@ def test_demo_runs_servos_plots_and_cleans_up(tmp_path: Path) -> None:
 
 
 @pytest.mark.process
-def test_demo_rejects_bad_arguments() -> None:
+@pytest.mark.parametrize("spelling", ["--duration", "--seconds"])
+def test_demo_rejects_bad_arguments(spelling: str) -> None:
     result = subprocess.run(
-        [sys.executable, "-m", "fw1394.cli.main", "demo", "--seconds", "-1"],
+        [sys.executable, "-m", "fw1394.cli.main", "demo", spelling, "-1"],
         capture_output=True,
         text=True,
         timeout=30,
     )
     assert result.returncode == 2
-    assert result.stderr.strip().startswith("fw1394: error: --seconds")
+    assert result.stderr.strip().startswith("fw1394: error: --duration -1")

@@ -66,6 +66,9 @@ class Options:
     flush_each: bool = False  # -l: flush after every packet
     #: -w: the packets shown go to this trace writer instead of being printed.
     writer: Any = None
+    #: -z: statistics printed at the end (expert, conv, latency); -q: no packet rows.
+    statistics: tuple[str, ...] = ()
+    quiet: bool = False
 
 
 @dataclass
@@ -160,6 +163,8 @@ class Dissection:
         self._ack_owed = False  # -w: the last packet saved waits for its ack record
         view = options.view
         self.pairs = view in ("transactions", "stats", "rom") or options.want_plots
+        self.pairs |= bool(options.statistics)
+        self._conversations: dict[tuple[int, int], int] = {}
         if self._csv is not None and view == "packets":
             self._csv.writerow(PACKET_CSV)
         elif self._csv is not None and view == "transactions":
@@ -206,10 +211,14 @@ class Dissection:
         if self.selecting:
             self._note_span(batch, decoded)
         keep = self._packet_filter(batch, decoded)
-        if self.options.view == "stats":
+        if self.options.view == "stats" or self.options.statistics:
             outcome.stats.add_batch(batch, decoded, keep)
-        if self.options.view == "packets":
+        if "conv" in self.options.statistics:
+            self._count_conversations(decoded, keep)
+        if self.options.view == "packets" and not self.options.quiet:
             self._packets(batch, decoded, keep)
+        elif self.options.view == "packets":
+            self.outcome.shown += int(np.count_nonzero(keep))
         if self.pairs:
             self._transactions(self.pairer.feed(batch, decoded), batch)
         self.ordinal += len(batch)
@@ -377,7 +386,7 @@ class Dissection:
             if not len(tx):
                 continue
             keep = self._transaction_filter(tx)
-            if self.options.view == "stats" or self.options.want_plots:
+            if self.options.view == "stats" or self.options.want_plots or self.options.statistics:
                 self.outcome.stats.add_transactions(tx, keep)
             if self.options.view == "transactions":
                 formatter = TransactionFormatter(tx, self.origin_ns or 0)
@@ -436,8 +445,55 @@ class Dissection:
             line = splice(line, formatter.value("first_frame", row), stamp)
         self.out.write(line + "\n")
 
+    def _count_conversations(self, decoded: Decoded, keep: np.ndarray) -> None:
+        source, destination = decoded.fields["source_id"], decoded.fields["destination_id"]
+        rows = keep & (decoded.tcode >= 0) & (source >= 0) & (destination >= 0)
+        pairs, counts = np.unique(
+            np.stack([source[rows], destination[rows]], axis=1), axis=0, return_counts=True
+        )
+        for (a, b), n in zip(pairs.tolist(), counts.tolist(), strict=True):
+            self._conversations[(a, b)] = self._conversations.get((a, b), 0) + n
+
+    def _statistics(self) -> None:
+        """-z: each statistic asked for, in the order asked, after the packets."""
+        self.outcome.stats.issues = self.outcome.issues
+        report = self.outcome.stats.report()
+        rule = "=" * 72
+        for name in self.options.statistics:
+            lines = [rule]
+            if name == "expert":
+                lines.append("Expert information: problems and notes")
+                lines += [
+                    line
+                    for line in stats_lines(
+                        {"errors": report.get("errors"), "notes": report.get("notes")}
+                    )
+                    if not line.startswith(("records read", "bus resets"))
+                ]
+            elif name == "conv":
+                lines.append("Conversations: packets from a node to a node")
+                for (a, b), n in sorted(self._conversations.items(), key=lambda item: -item[1]):
+                    lines.append(f"  {a:04x} -> {b:04x}  {n:8d}")
+            else:
+                lines.append("Transaction latency (request to response)")
+                lines += [
+                    line
+                    for line in stats_lines(
+                        {
+                            "latency": report.get("latency"),
+                            "latency_by_kind": report.get("latency_by_kind"),
+                            "latency_by_node": report.get("latency_by_node"),
+                        }
+                    )
+                    if not line.startswith(("records read", "bus resets"))
+                ]
+            lines.append(rule)
+            self.out.write("\n".join(lines) + "\n")
+
     # -- end ---------------------------------------------------------------------------------
     def finish(self) -> None:
+        if self.options.statistics:
+            self._statistics()
         view, output = self.options.view, self.options.output
         if view == "stats":
             self.outcome.stats.issues = self.outcome.issues

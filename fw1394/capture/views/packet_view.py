@@ -132,7 +132,7 @@ class PacketFormatter:
         elif field["channel"] >= 0:
             parts.append(f"channel={field['channel']} tag={field['tag']} sy={field['sy']}")
         if field["offset"] >= 0:
-            parts.append(f"offset={field['offset']:012x}")
+            parts.append(f"offset=0x{field['offset']:012x}")
             name = csr_name(field["offset"])
             if name:
                 parts.append(f"[{name}]")

@@ -33,6 +33,14 @@ TRANSACTION_CSV = (
     "attempts",
     "flags",
 )
+#: The name a transaction column has in every output (JSON and CSV alike).
+OUTPUT_NAMES = {
+    "resp_frame": "response_frame",
+    "resp_tcode": "response_tcode",
+    "resp_ack": "response_ack",
+    "resp_data_length": "response_data_length",
+    "resp_quadlet": "response_quadlet_data",
+}
 _SHORT = {
     TCode.write_quadlet_request: "QW",
     TCode.write_block_request: "BW",
@@ -66,7 +74,7 @@ class TransactionFormatter:
         if tcode >= 0:
             text += _SHORT.get(TCode(tcode), name_of(TCode, tcode))
             offset = v("offset", row)
-            text += f" {offset:012x}"
+            text += f" 0x{offset:012x}"
             name = csr_name(offset)
             if name:
                 text += f" [{name}]"
@@ -124,7 +132,7 @@ class TransactionFormatter:
             "latency_ns",
         ):
             if v(name, row) >= 0:
-                obj[name] = v(name, row)
+                obj[OUTPUT_NAMES.get(name, name)] = v(name, row)
         if v("tcode", row) >= 0:
             obj["tcode_name"] = name_of(TCode, v("tcode", row))
             register = csr_name(v("offset", row))
