@@ -1,12 +1,14 @@
 """Which medium carries a bus: shared memory on one host, UDP multicast across hosts.
 
 Both carry the same frames (:mod:`fw1394.packets.frame`) with the same
-semantics (``docs/virtual-bus.md``, "Media"). A bus on the loopback interface
-lives on one host and uses :class:`~fw1394.transport.shared_medium.SharedMedium`;
-a bus on a LAN interface spans hosts and uses the UDP medium
-(:class:`~fw1394.transport.medium.Medium`). ``FW1394_MEDIUM`` (``shm`` or
-``udp``) overrides the choice for every member started with it in its
-environment: every member of one bus must use the same medium.
+semantics (``docs/virtual-bus.md``, "Media"). Every bus uses the UDP medium
+(:class:`~fw1394.transport.medium.Medium`) unless ``FW1394_MEDIUM=shm`` puts a
+bus that lives on one host on
+:class:`~fw1394.transport.shared_medium.SharedMedium`: a member stopped
+(SIGSTOP, a debugger) while it holds the ring's writer lock stalls every
+writer of a shared-memory bus, which the pause guarantees of the UDP bus do not
+allow, and on the machines measured so far the ring was not faster. Every
+member of one bus must use the same medium.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import socket
 from collections.abc import Callable
 from typing import Protocol
 
+from fw1394.errors import UsageError
 from fw1394.transport.config import BusConfig
 from fw1394.transport.idle import BLOCK, IdleStrategy
 from fw1394.transport.medium import Medium
@@ -53,16 +56,19 @@ class BusMedium(Protocol):
 
 
 def medium_name(config: BusConfig) -> str:
-    """``shm`` or ``udp``: what ``FW1394_MEDIUM`` says, else by the bus's interface.
+    """``shm`` or ``udp``: what ``FW1394_MEDIUM`` says, else ``udp``.
 
-    Raises ValueError for an unknown name in the environment.
+    Shared memory only carries a bus on one host: ``shm`` for a bus on a LAN
+    interface, or an unknown name, is a :class:`~fw1394.errors.UsageError`.
     """
-    chosen = os.environ.get(ENVIRONMENT, "").strip().lower()
-    if chosen:
-        if chosen not in NAMES:
-            raise ValueError(f"{ENVIRONMENT}={chosen!r}: expected {' or '.join(NAMES)}")
-        return chosen
-    return SHARED if config.interface.startswith("127.") else UDP
+    chosen = os.environ.get(ENVIRONMENT, "").strip().lower() or UDP
+    if chosen not in NAMES:
+        raise UsageError(f"{ENVIRONMENT}={chosen!r}: expected {' or '.join(NAMES)}")
+    if chosen == SHARED and not config.interface.startswith("127."):
+        raise UsageError(
+            f"{ENVIRONMENT}=shm carries a bus on one host; {config.interface} is a LAN interface"
+        )
+    return chosen
 
 
 def open_medium(

@@ -11,10 +11,10 @@ import time
 import pytest
 from bus_support import bus_name
 
+from fw1394.errors import UsageError
 from fw1394.transport import media
 from fw1394.transport.config import BusConfig
 from fw1394.transport.idle import BLOCK
-from fw1394.transport.medium import Medium
 from fw1394.transport.shared_medium import RING_SIZE, SharedMedium, segment_path
 
 _CONTEXT = multiprocessing.get_context("fork")
@@ -162,18 +162,21 @@ def test_a_reader_lapped_by_the_writers_loses_frames_and_says_so() -> None:
         sender.close()
 
 
-def test_the_medium_follows_the_interface_unless_the_environment_says(
+def test_udp_unless_the_environment_asks_for_shared_memory(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     monkeypatch.delenv(media.ENVIRONMENT, raising=False)
-    assert media.medium_name(BusConfig("m")) == "shm"
+    assert media.medium_name(BusConfig("m")) == "udp"
     assert media.medium_name(BusConfig("m", interface="10.1.2.3", ttl=1)) == "udp"
-    monkeypatch.setenv(media.ENVIRONMENT, "udp")
+    monkeypatch.setenv(media.ENVIRONMENT, "shm")
+    assert media.medium_name(BusConfig("m")) == "shm"
     opened = media.open_medium(BusConfig(bus_name("shm-env")))
     try:
-        assert isinstance(opened, Medium)
+        assert isinstance(opened, SharedMedium)
     finally:
         opened.close()
+    with pytest.raises(UsageError, match="LAN interface"):
+        media.medium_name(BusConfig("m", interface="10.1.2.3", ttl=1))
     monkeypatch.setenv(media.ENVIRONMENT, "carrier-pigeon")
-    with pytest.raises(ValueError, match="FW1394_MEDIUM"):
+    with pytest.raises(UsageError, match="FW1394_MEDIUM"):
         media.medium_name(BusConfig("m"))
