@@ -17,18 +17,6 @@ own link layer and the other containers), written by :class:`PcapngWriter`,
 Traces are read by :class:`PcapngReader` and :class:`PcapReader` (fw1394's
 own link layer and the other containers), written by :class:`PcapngWriter`,
 :class:`PcapWriter` and :func:`write_trace`; :class:`BusTap` records a live bus.
-
-Traces are read by :class:`PcapngReader` and :class:`PcapReader` (fw1394's
-own link layer and the other containers), written by :class:`PcapngWriter`,
-:class:`PcapWriter` and :func:`write_trace`; :class:`BusTap` records a live bus.
-
-Traces are read by :class:`PcapngReader` and :class:`PcapReader` (fw1394's
-own link layer and the other containers), written by :class:`PcapngWriter`,
-:class:`PcapWriter` and :func:`write_trace`; :class:`BusTap` records a live bus.
-
-Traces are read by :class:`PcapngReader` and :class:`PcapReader` (fw1394's
-own link layer and the other containers), written by :class:`PcapngWriter`,
-:class:`PcapWriter` and :func:`write_trace`; :class:`BusTap` records a live bus.
 """
 
 from __future__ import annotations

@@ -7,26 +7,6 @@ Entry points: :func:`run` fuzzes the target of a :class:`Settings` and returns a
 :class:`Report` of shrunk :class:`Finding` objects; :func:`replay_all` replays
 saved findings (:func:`load_findings`) on the same or another target.
 :data:`CONTRACTS` names the behaviours a node can be held to.
-
-Entry points: :func:`run` fuzzes the target of a :class:`Settings` and returns a
-:class:`Report` of shrunk :class:`Finding` objects; :func:`replay_all` replays
-saved findings (:func:`load_findings`) on the same or another target.
-:data:`CONTRACTS` names the behaviours a node can be held to.
-
-Entry points: :func:`run` fuzzes the target of a :class:`Settings` and returns a
-:class:`Report` of shrunk :class:`Finding` objects; :func:`replay_all` replays
-saved findings (:func:`load_findings`) on the same or another target.
-:data:`CONTRACTS` names the behaviours a node can be held to.
-
-Entry points: :func:`run` fuzzes the target of a :class:`Settings` and returns a
-:class:`Report` of shrunk :class:`Finding` objects; :func:`replay_all` replays
-saved findings (:func:`load_findings`) on the same or another target.
-:data:`CONTRACTS` names the behaviours a node can be held to.
-
-Entry points: :func:`run` fuzzes the target of a :class:`Settings` and returns a
-:class:`Report` of shrunk :class:`Finding` objects; :func:`replay_all` replays
-saved findings (:func:`load_findings`) on the same or another target.
-:data:`CONTRACTS` names the behaviours a node can be held to.
 """
 
 from __future__ import annotations
