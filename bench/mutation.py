@@ -6,7 +6,7 @@
     python bench/mutation.py --changed HEAD~1 --budget 600   # what a change touched
     python bench/mutation.py --json                   # one JSON object for scripts
 
-Each plan entry's files are mutated by cosmic-ray in one session (operators:
+Each plan entry's files are mutated by cosmic-ray from one work database (operators:
 comparisons, arithmetic, boolean and unary operators, numbers, break/continue,
 exceptions, ...), ``--sample`` draws that many mutants across all of them, and the
 test directories that the plan below names for the entry run against every
@@ -128,9 +128,9 @@ def config(modules: list[str], tests: tuple[str, ...], timeout: float) -> str:
     )
 
 
-def keep_sample(session: Path, sample: int, seed: int) -> int:
-    """Keep ``sample`` mutants of the session, chosen with ``seed``; how many there were."""
-    with sqlite3.connect(session) as db:
+def keep_sample(work: Path, sample: int, seed: int) -> int:
+    """Keep ``sample`` mutants of the work database, chosen with ``seed``; how many there were."""
+    with sqlite3.connect(work) as db:
         jobs = [row[0] for row in db.execute("SELECT job_id FROM work_items ORDER BY job_id")]
         if 0 < sample < len(jobs):
             drop = set(jobs) - set(random.Random(seed).sample(jobs, sample))
@@ -145,13 +145,13 @@ def score_entry(
     """Mutants of the plan entry's ``modules``, ``sample`` of them drawn across all its files."""
     result = ModuleScore(entry)
     with tempfile.TemporaryDirectory(prefix="fw1394-mutation-") as scratch:
-        cfg, session = Path(scratch) / "cr.toml", Path(scratch) / "session.sqlite"
+        cfg, work = Path(scratch) / "cr.toml", Path(scratch) / "work.sqlite"
         cfg.write_text(config(modules, tests, timeout))
         tool = [sys.executable, "-m", "cosmic_ray.cli"]
-        subprocess.run([*tool, "init", str(cfg), str(session)], cwd=ROOT, check=True)
-        result.mutants = keep_sample(session, sample, seed)
-        subprocess.run([*tool, "exec", str(cfg), str(session)], cwd=ROOT, check=True)
-        with sqlite3.connect(session) as db:
+        subprocess.run([*tool, "init", str(cfg), str(work)], cwd=ROOT, check=True)
+        result.mutants = keep_sample(work, sample, seed)
+        subprocess.run([*tool, "exec", str(cfg), str(work)], cwd=ROOT, check=True)
+        with sqlite3.connect(work) as db:
             rows = db.execute(
                 "SELECT r.worker_outcome, r.test_outcome, r.diff, s.module_path,"
                 " s.start_pos_row, s.operator_name"
