@@ -47,9 +47,9 @@ from typing import Any
 from fw1394.experiments.frame_floor import FrameFloor
 from fw1394.experiments.regime import Regime, same_regime, settle, settle_time, switches
 from fw1394.experiments.timing import SWITCH_WARMUP, cpu_split, pin
+from fw1394.host.bus_port import BusPort
 from fw1394.packets import QuadletReadRequest
 from fw1394.packets.fast import encode_packet
-from fw1394.transport.bus_port import BusPort
 from fw1394.transport.config import BusConfig
 from fw1394.transport.idle import Waiter, default_idle, parse_idle
 from fw1394.transport.media import ENVIRONMENT as MEDIUM_ENV

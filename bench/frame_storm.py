@@ -29,8 +29,8 @@ from pathlib import Path
 from typing import Any
 
 from fw1394.fuzz.bus_frames import hostile_frame
+from fw1394.host.bus_port import BusPort
 from fw1394.transport.bus_host import BusError, TransactionError
-from fw1394.transport.bus_port import BusPort
 from fw1394.transport.config import BusConfig
 from fw1394.transport.launch import LaunchedBus
 from fw1394.transport.media import BusMedium, open_medium

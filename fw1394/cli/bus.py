@@ -26,7 +26,7 @@ from fw1394.transport.supervision.procs import pid_namespace
 from fw1394.transport.wire import MAX_MEMBERS, MemberInfo
 
 if TYPE_CHECKING:
-    from fw1394.transport.bus_port import BusPort
+    from fw1394.host.bus_port import BusPort
 
 T = TypeVar("T")
 __all__ = ["add_bus_options", "add_member_options", "bus_config", "host_port", "register"]
@@ -78,7 +78,7 @@ def _checked(make: Callable[[argparse.Namespace], T], args: argparse.Namespace) 
 
 def host_port(args: argparse.Namespace) -> BusPort:
     """A host port on the bus the options name, waiting ``--timeout`` per transaction."""
-    from fw1394.transport.bus_port import BusPort
+    from fw1394.host.bus_port import BusPort
     from fw1394.transport.seal import BusKeyError
 
     config = bus_config(args)

@@ -25,8 +25,8 @@ from fw1394.demo.processes import children, per_cycle, snapshot, wait_idle
 from fw1394.engine import FailureReason
 from fw1394.engine.space import TICKS_PER_SECOND
 from fw1394.host import Board, MultiBoard, PdGains, PositionLoop
+from fw1394.host.bus_port import BusPort
 from fw1394.transport.bus_host import TransactionError
-from fw1394.transport.bus_port import BusPort
 from fw1394.transport.config import BusConfig
 from fw1394.transport.idle import ENVIRONMENT, IdleStrategy
 from fw1394.transport.launch import LaunchedBus

@@ -19,7 +19,7 @@ import time
 from pathlib import Path
 
 from fw1394.experiments.timing import pin
-from fw1394.transport.bus_port import BusPort
+from fw1394.host.bus_port import BusPort
 from fw1394.transport.config import BusConfig
 from fw1394.transport.launch import LaunchedBus
 from fw1394.transport.membership import Timing

@@ -16,7 +16,7 @@ bus raises :class:`BoardNotOnBusError`.
 ``Board(BoardPort(port), board_id)`` is then a :class:`~fw1394.host.robot.RobotIO`
 addressed by board ID. ``port`` is an
 :class:`~fw1394.host.adapter_port.AdapterPort` or a
-:class:`~fw1394.transport.bus_port.BusPort`.
+:class:`~fw1394.host.bus_port.BusPort`.
 """
 
 from __future__ import annotations

@@ -10,7 +10,8 @@
 * :mod:`~fw1394.transport.link`: the link layer: frames to engine calls and back,
   for the requester and the responder side of every member and tunnel;
   :mod:`~fw1394.transport.node_express`: a node's common turn in one pass.
-* :mod:`~fw1394.transport.bus_host`, :mod:`~fw1394.transport.bus_port`: the host side.
+* :mod:`~fw1394.transport.bus_host`: the host member (:mod:`fw1394.host.bus_port`
+  puts the host library's blocking calls on it).
 * :mod:`~fw1394.transport.launch`, :mod:`~fw1394.transport.supervisor`,
   :mod:`~fw1394.transport.runtime`: node processes in the background (each one a
   ``python -m fw1394.node`` process).
@@ -20,11 +21,8 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 from fw1394.transport.adapter_protocol import Op
 from fw1394.transport.bus_host import BusError, BusHost, StaleGenerationError, TransactionTimeout
-from fw1394.transport.bus_port import BusPort
 from fw1394.transport.config import BusConfig, BusNameError
 from fw1394.transport.eth1394_addresses import Endpoint
 from fw1394.transport.launch import AlreadyUpError, LaunchedBus, LaunchError
@@ -35,23 +33,11 @@ __all__ = [
     "BusError",
     "BusHost",
     "BusNameError",
-    "BusPort",
     "Endpoint",
     "LaunchError",
     "LaunchedBus",
     "Op",
     "StaleGenerationError",
     "TransactionTimeout",
-    "open_bus",
 ]
 
-
-def open_bus(name: str = "default", **options: Any) -> BusPort:
-    """Join bus ``name`` as a host: a :class:`BusPort`, closed by ``with`` or ``close()``.
-
-    ``options`` are :class:`~fw1394.transport.bus_host.BusHost`'s (``ack_timeout``,
-    ``split_timeout``, ``join_timeout``, ...). The bus must be running (``fw1394 bus
-    up NAME``, or a :class:`LaunchedBus`); reads and writes raise
-    :class:`fw1394.TransactionError` (:class:`fw1394.Timeout` when nothing answered).
-    """
-    return BusPort(BusConfig(name), **options)

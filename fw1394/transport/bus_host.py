@@ -2,7 +2,7 @@
 
 :class:`BusHost` is the low-level interface: start transactions (several may
 be outstanding), then :meth:`BusHost.wait` for their events or
-:meth:`BusHost.poll` the bus. :class:`fw1394.transport.bus_port.BusPort` puts the
+:meth:`BusHost.poll` the bus. :class:`fw1394.host.bus_port.BusPort` puts the
 blocking :class:`~fw1394.host.port.Port` calls on top.
 
 A host is a bus member like any node (a contender, so it gets the highest

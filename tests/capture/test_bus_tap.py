@@ -12,7 +12,7 @@ import pytest
 from bus_support import LaunchBus
 
 from fw1394.capture.formats.bus_tap import BATCH_INTERVAL
-from fw1394.transport.bus_port import BusPort
+from fw1394.host.bus_port import BusPort
 from fw1394.transport.membership import Timing
 
 READS = 400

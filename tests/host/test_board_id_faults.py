@@ -27,9 +27,9 @@ from adapter_support import AdapterBus, adapter_bus
 from fw1394.engine import FailureReason
 from fw1394.host.adapter_port import AdapterPort
 from fw1394.host.addressing import BoardNotOnBusError, BoardPort
+from fw1394.host.bus_port import BusPort
 from fw1394.transport.adapter_protocol import Op
 from fw1394.transport.bus_host import StaleGenerationError, TransactionError
-from fw1394.transport.bus_port import BusPort
 from fw1394.transport.membership import Timing
 
 TRANSACTIONS = 10_000

@@ -101,7 +101,7 @@ def memory_bus() -> object:
 
 TRAFFIC = """
 import sys, time
-from fw1394.transport.bus_port import BusPort
+from fw1394.host.bus_port import BusPort
 from fw1394.transport.config import BusConfig
 from fw1394.transport.membership import Timing
 port = BusPort(BusConfig(sys.argv[1]), timing=Timing(heartbeat=0.1, lease=2.0))

@@ -17,6 +17,7 @@ from adapter_support import AdapterBus, adapter_bus
 from hypothesis import given
 from hypothesis import strategies as st
 
+from fw1394.host.bus_port import BusPort
 from fw1394.transport.adapter_protocol import (
     Op,
     Reply,
@@ -25,7 +26,6 @@ from fw1394.transport.adapter_protocol import (
     parse_reply,
     parse_request,
 )
-from fw1394.transport.bus_port import BusPort
 from fw1394.transport.membership import Timing
 from fw1394.transport.runtime import adapter_socket
 
@@ -295,7 +295,7 @@ def test_a_request_of_an_ended_generation_is_never_sent(bus: AdapterBus) -> None
 
 @pytest.mark.process
 def test_bus_port_calls_pinned_to_an_ended_generation_send_nothing(bus: AdapterBus) -> None:
-    from fw1394.transport.bus_port import StaleGenerationError
+    from fw1394.host.bus_port import StaleGenerationError
 
     with BusPort(bus.config, timing=Timing(heartbeat=0.1, lease=2.0)) as port:
         port.wait_ready()

@@ -20,7 +20,7 @@ from bus_support import bus_name, wait_until_gone
 
 from fw1394.capture.formats.bus_tap import BusTap
 from fw1394.cli.main import main
-from fw1394.transport.bus_port import BusPort
+from fw1394.host.bus_port import BusPort
 from fw1394.transport.config import BusConfig
 from fw1394.transport.launch import LaunchedBus
 from fw1394.transport.media import open_medium

@@ -20,7 +20,7 @@ from bus_support import bus_name, node_command, stop, wait_until_gone
 from fake_bus import FakeBus, settled
 
 from fw1394.engine import ReadCompleted, TransactionEvent, TransactionFailed
-from fw1394.transport.bus_port import BusPort
+from fw1394.host.bus_port import BusPort
 from fw1394.transport.config import BusConfig
 from fw1394.transport.membership import Timing
 

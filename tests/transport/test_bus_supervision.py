@@ -11,7 +11,7 @@ import pytest
 from bus_support import bus_name, start_node, stop, wait_until_gone
 
 from fw1394.cli.main import main
-from fw1394.transport.bus_port import BusPort
+from fw1394.host.bus_port import BusPort
 from fw1394.transport.config import BusConfig
 from fw1394.transport.launch import LaunchedBus
 from fw1394.transport.membership import Timing

@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 from adapter_support import AdapterBus, adapter_bus
 
-from fw1394.transport.bus_port import BusPort
+from fw1394.host.bus_port import BusPort
 from fw1394.transport.membership import Timing
 from fw1394.transport.runtime import MEMBERS_DIR, read_members
 

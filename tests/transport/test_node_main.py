@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 from bus_support import bus_name, stop, wait_until_gone
 
-from fw1394.transport.bus_port import BusPort
+from fw1394.host.bus_port import BusPort
 from fw1394.transport.config import BusConfig
 from fw1394.transport.launch import LaunchedBus
 from fw1394.transport.membership import Timing

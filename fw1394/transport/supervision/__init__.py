@@ -3,3 +3,7 @@
 * :mod:`~fw1394.transport.supervision.stop`: the one way any child process is stopped.
 * :mod:`~fw1394.transport.supervision.procs`: liveness, PID namespaces, dying with the parent.
 """
+
+from fw1394.transport.supervision.stop import GRACE, Pid, Stoppable, Stopped, stop
+
+__all__ = ["GRACE", "Pid", "Stoppable", "Stopped", "stop"]
