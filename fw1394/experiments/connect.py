@@ -21,13 +21,13 @@ from fw1394.host.bus_port import BusPort
 from fw1394.jhu.client import EthUdpClient
 from fw1394.jhu.scan import start
 from fw1394.transport.bus_host import BusError
-from fw1394.transport.config import BusConfig, parse_bus_node
 from fw1394.transport.eth1394_addresses import (
     AddressRefusedError,
     Endpoint,
     parse_endpoint,
     require_loopback,
 )
+from fw1394.transport.sansio.config import BusConfig, parse_bus_node
 
 VIRTUAL = "virtual"
 

@@ -29,7 +29,7 @@ from typing import Protocol, TypeVar
 
 from fw1394.errors import BusUnreachable
 from fw1394.transport.bus_host import StaleGenerationError
-from fw1394.transport.wire import NO_BOARD, MemberInfo
+from fw1394.transport.sansio.wire import NO_BOARD, MemberInfo
 
 log = logging.getLogger("fw1394.host")
 T = TypeVar("T")

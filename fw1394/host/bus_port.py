@@ -8,9 +8,9 @@ from typing import Any
 
 from fw1394.engine import LockCompleted, TransactionEvent, TransactionFailed
 from fw1394.transport.bus_host import BusHost, StaleGenerationError, TransactionError
-from fw1394.transport.config import BusConfig
 from fw1394.transport.express import Express
-from fw1394.transport.wire import MemberInfo
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.wire import MemberInfo
 
 __all__ = ["BusPort", "StaleGenerationError", "TransactionError", "open_bus"]
 
@@ -106,7 +106,8 @@ def open_bus(name: str = "default", **options: Any) -> BusPort:
 
     ``options`` are :class:`~fw1394.transport.bus_host.BusHost`'s (``ack_timeout``,
     ``split_timeout``, ``join_timeout``, ...). The bus must be running (``fw1394 bus
-    up NAME``, or a :class:`~fw1394.transport.launch.LaunchedBus`); reads and writes raise
-    :class:`fw1394.TransactionError` (:class:`fw1394.Timeout` when nothing answered).
+    up NAME``, or a :class:`~fw1394.transport.supervision.launch.LaunchedBus`); reads and
+    writes raise :class:`fw1394.TransactionError` (:class:`fw1394.Timeout` when nothing
+    answered).
     """
     return BusPort(BusConfig(name), **options)

@@ -34,8 +34,8 @@ from fw1394.packets import Speed
 from fw1394.packets.accessors import TLABEL
 from fw1394.packets.layouts import TCODE_BYTE, TCODE_SHIFT
 from fw1394.transport.link import ACK, ASYNC_PACKET, ResponderLink
+from fw1394.transport.sansio.wire import HEADER, HEADER_SIZE, MAGIC, VERSION, FrameHeader
 from fw1394.transport.station import skipping
-from fw1394.transport.wire import HEADER, HEADER_SIZE, MAGIC, VERSION, FrameHeader
 
 _clock = time.monotonic
 _tlabel = TLABEL.of_bytes

@@ -32,8 +32,8 @@ from fw1394.packets import (
     WriteResponse,
     encode,
 )
-from fw1394.transport.config import BusConfig
-from fw1394.transport.launch import LaunchedBus
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.supervision.launch import LaunchedBus
 
 TSHARK = shutil.which("tshark")
 pytestmark = [

@@ -16,8 +16,8 @@ import pytest
 from adapter_support import AdapterBus, adapter_bus
 
 from fw1394.host.bus_port import BusPort
-from fw1394.transport.membership import Timing
-from fw1394.transport.runtime import adapter_socket
+from fw1394.transport.sansio.membership import Timing
+from fw1394.transport.supervision.runtime import adapter_socket
 
 pytestmark = pytest.mark.process
 

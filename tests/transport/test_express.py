@@ -39,11 +39,11 @@ from fw1394.packets.frame import ACK_FRAME_FORMAT, FRAME_TRAILER_SIZE
 from fw1394.packets.nodeid import node_id
 from fw1394.transport import bus_host, express, link
 from fw1394.transport.bus_host import BusError, TransactionError
-from fw1394.transport.config import BusConfig
-from fw1394.transport.launch import LaunchedBus
 from fw1394.transport.link import ResponderLink
-from fw1394.transport.membership import BusReset, Timing
-from fw1394.transport.wire import FrameHeader, FrameKind, MemberInfo
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import BusReset, Timing
+from fw1394.transport.sansio.wire import FrameHeader, FrameKind, MemberInfo
+from fw1394.transport.supervision.launch import LaunchedBus
 
 NODE, HOST = 0, 1
 MEMORY = 64
