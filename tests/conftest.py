@@ -23,8 +23,8 @@ from pathlib import Path
 import pytest
 from bus_support import LaunchBus, bus_name, stop, wait_until_gone
 
-from fw1394.transport.config import BusConfig
-from fw1394.transport.launch import LaunchedBus
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.supervision.launch import LaunchedBus
 
 # What the running test has started: commands of processes, filled by the
 # wrappers below from the start of its setup (module fixtures included) to the

@@ -25,7 +25,7 @@ from fw1394.packets.ack import ACK_BYTES
 from fw1394.packets.fast import decode_packet, encode_packet
 from fw1394.packets.nodeid import node_id
 from fw1394.transport.link import RequesterLink, ResponderLink
-from fw1394.transport.wire import FrameHeader, FrameKind
+from fw1394.transport.sansio.wire import FrameHeader, FrameKind
 
 MEMORY = 256
 ME = 2

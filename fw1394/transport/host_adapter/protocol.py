@@ -62,7 +62,7 @@ class Op(IntEnum):
     lock = 3
     send = 4
     hello = 5
-    # The adapter's own node and its bus (fw1394.transport.adapter_services).
+    # The adapter's own node and its bus (fw1394.transport.host_adapter.services).
     watch = 6
     listen = 7
     unlisten = 8
