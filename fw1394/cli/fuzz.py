@@ -230,7 +230,8 @@ def settings_of(args: argparse.Namespace) -> Any:
 
 def run_campaign(args: argparse.Namespace) -> int:
     from fw1394.fuzz import findings, workers
-    from fw1394.fuzz.progress import Progress
+    from fw1394.fuzz.campaign import terminable
+    from fw1394.progress import Progress
 
     settings = settings_of(args)
     directory = Path(args.findings)
@@ -249,25 +250,33 @@ def run_campaign(args: argparse.Namespace) -> int:
             from fw1394.fuzz import hypo
         except ImportError as error:
             raise CliError(f"the hypothesis engine needs the {error.name} package") from None
-        report = _guarded(lambda: hypo.run(settings))
-    else:
-        show = sys.stderr.isatty() if args.progress is None else args.progress
-        show = show and args.jobs == 1 and args.cluster is None
-        progress = Progress(settings.max_cases, settings.duration) if show else None
-        if args.cluster is not None:
-            if args.restart is not None:
-                raise CliError("--cluster runs without --restart")
+    if args.cluster is not None and args.restart is not None:
+        raise CliError("--cluster runs without --restart")
+    try:
+        store = findings.Store(directory, earlier)
+    except OSError as error:
+        raise CliError(f"cannot save findings in {directory}: {error.strerror or error}") from None
+    with terminable():
+        if args.engine == "hypothesis":
+            report = _guarded(lambda: hypo.run(settings))
+        elif args.cluster is not None:
             from fw1394.fuzz import cluster
 
             jobs = args.jobs if args.jobs > 1 else None
             report = _guarded(lambda: cluster.run(settings, args.cluster, jobs=jobs))
         else:
+            show = sys.stderr.isatty() if args.progress is None else args.progress
+            show = show and args.jobs == 1
+            progress = Progress() if show else None
             report = _guarded(
-                lambda: workers.run(settings, args.jobs, restart=args.restart, progress=progress)
+                lambda: workers.run(
+                    settings, args.jobs, restart=args.restart, progress=progress, store=store
+                )
             )
     try:
-        findings.save(directory, findings.merged(earlier, report.findings))
-        (directory / "report.json").write_text(json.dumps(report.to_json(), indent=2) + "\n")
+        for finding in report.findings:
+            store.put(finding)
+        store.report(report.to_json())
     except OSError as error:
         raise CliError(f"cannot save findings in {directory}: {error.strerror or error}") from None
     if args.json:

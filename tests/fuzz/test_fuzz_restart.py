@@ -95,7 +95,7 @@ def test_one_campaign_finds_shrinks_and_replays_every_violation(
     found = tmp_path / "found"
     result = cli(
         "run", target, "--eth1394", "--model", "memory", "--restart", restart,
-        "--max-cases", "1200", "--duration", "40", "--state-every", "16", "--history", "128",
+        "--max-cases", "1200", "--state-every", "16", "--history", "128",
         "--timeout", "0.2", "--dead-after", "10", "--shrink-budget", "25",
         "--findings", str(found), "--json",
     )  # fmt: skip
