@@ -108,8 +108,10 @@ def add_run_options(run: argparse.ArgumentParser) -> None:
         "--duration",
         type=float,
         default=None,
-        help="stop fuzzing after S seconds; shrinking the findings comes after it, up to "
-        "--shrink-budget replays each (0: none, the run stays inside S)",
+        metavar="S",
+        help="the whole run, shrinking included, ends within S seconds (but for a replay "
+        "begun before): fuzzing stops at S, or at 80%% of S once there are findings to "
+        "shrink, and shrinking stops at S, the findings left kept as found",
     )
     limits.add_argument(
         "--engine",
@@ -171,7 +173,12 @@ def add_run_options(run: argparse.ArgumentParser) -> None:
     )
     out = run.add_argument_group("inputs and findings")
     out.add_argument("--corpus", action="append", default=[], metavar="FILE", help="seeds")
-    out.add_argument("--findings", default="fuzz-findings", metavar="DIR", help="reproducers")
+    out.add_argument(
+        "--findings",
+        default="fuzz-findings",
+        metavar="DIR",
+        help="reproducers, each written when found (a stopped or killed run keeps them)",
+    )
     saved = out.add_mutually_exclusive_group()
     saved.add_argument("--force", action="store_true", help="replace the findings already in DIR")
     saved.add_argument(
@@ -181,7 +188,8 @@ def add_run_options(run: argparse.ArgumentParser) -> None:
         "--shrink-budget",
         type=integer,
         default=300,
-        help="replays per finding when shrinking, after --duration or --max-cases (default 300)",
+        help="replays per finding when shrinking (default 300; 0: no shrinking); with "
+        "--duration, shrinking also stops when the duration is over",
     )
     out.add_argument("--history", type=integer, default=512, help="packets kept per finding")
     out.add_argument("--json", action="store_true", help="print the report as JSON")
