@@ -31,7 +31,7 @@ EXPECTED = {
     ("silence", "other-node:read:response"),
     ("silence", "bad-header-crc:read:response"),
     ("liveness", "valid-read-unanswered"),
-    ("state", "sweep-changed:quadlet_data"),
+    ("state", "sweep-changed@MEMORY:data"),
 }
 #: Seconds a node process lives at most (it stops by itself).
 NODE_LIFETIME = 120
@@ -115,7 +115,7 @@ def test_one_campaign_finds_shrinks_and_replays_every_violation(
     assert wedge.restarts and wedge.restarts[0]["status"] == 0
     assert "node started as process" in wedge.restarts[0]["output"]
     # The side effect: both registers named.
-    side = findings[("state", "sweep-changed:quadlet_data")]
+    side = findings[("state", "sweep-changed@MEMORY:data")]
     assert "register 0x24" in side.observed and "0x10" in side.observed
     # Each silence finding is one packet.
     for key in EXPECTED:
