@@ -56,6 +56,7 @@ from fw1394.transport.media import ENVIRONMENT as MEDIUM_ENV
 from fw1394.transport.medium import MAX_FRAME, Medium
 from fw1394.transport.membership import Timing
 from fw1394.transport.shared_medium import SharedMedium
+from fw1394.transport.supervision.stop import stop
 from fw1394.transport.wire import FrameHeader, FrameKind
 
 BLOCK = 2048  # 512 quadlets
@@ -148,11 +149,7 @@ class RawEcho:
     def close(self) -> None:
         self.sock.sendto(b"stop", self.peer)
         self.sock.close()
-        try:
-            self.echo.wait(5)
-        except subprocess.TimeoutExpired:
-            self.echo.kill()
-            self.echo.wait()
+        stop(self.echo, ask=None)  # asked by the "stop" datagram
 
 
 def raw_ping_pong(count: int) -> dict[str, float]:
@@ -432,10 +429,7 @@ class Nodes:
             self.processes.append(subprocess.Popen(command, stdin=subprocess.DEVNULL))
 
     def stop(self) -> None:
-        for process in self.processes:
-            process.terminate()
-        for process in self.processes:
-            process.wait(10)
+        stop(self.processes)
 
 
 def wait_for_nodes(port: BusPort, count: int, timeout: float = 120.0) -> None:

@@ -22,7 +22,7 @@ from fw1394.node.description import (
 from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig
 from fw1394.transport.membership import Timing
-from fw1394.transport.procs import pid_namespace
+from fw1394.transport.supervision.procs import pid_namespace
 from fw1394.transport.wire import MAX_MEMBERS, MemberInfo
 
 if TYPE_CHECKING:

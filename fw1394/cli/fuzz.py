@@ -306,7 +306,7 @@ def run_serve(args: argparse.Namespace) -> int:
     from fw1394.transport.udp_ports import PortInUseError, refuse_taken_port
 
     if args.parent_pid is not None:
-        from fw1394.transport.procs import die_with_parent
+        from fw1394.transport.supervision.procs import die_with_parent
 
         die_with_parent(args.parent_pid)
     try:

@@ -30,6 +30,7 @@ from fw1394.transport.bus_port import BusPort
 from fw1394.transport.config import BusConfig
 from fw1394.transport.idle import ENVIRONMENT, IdleStrategy
 from fw1394.transport.launch import LaunchedBus
+from fw1394.transport.supervision.stop import stop
 
 #: The robot of thesis section 1.2: actuation unit (7 axes) and Z-Theta stage (4).
 BOARDS = ("snake2010", "snake2010-ztheta")
@@ -181,12 +182,7 @@ def _tap(config: BusConfig, path: Path | None) -> Iterator[subprocess.Popen[byte
         # SIGINT is the capture's clean stop: it finishes the record and the file, but
         # drops what its socket still holds, so a capture that lags is let catch up.
         wait_idle(tap.pid)
-        tap.send_signal(signal.SIGINT)
-        try:
-            tap.wait(10)
-        except subprocess.TimeoutExpired:
-            tap.kill()
-            tap.wait()
+        stop(tap, ask=signal.SIGINT)
 
 
 def _retrying_bus_resets(action: Callable[[], None], attempts: int = 3) -> None:

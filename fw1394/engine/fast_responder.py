@@ -39,6 +39,7 @@ from fw1394.packets import (
     WriteResponse,
 )
 from fw1394.packets.ack import ACK_BYTES
+from fw1394.packets.codegen import compile_function
 from fw1394.packets.fast import block_crc, builder, data_block_source, decode_sound, substitute
 from fw1394.packets.frame import ACK_FRAME_FORMAT
 from fw1394.packets.layouts import TCODE_BYTE, TCODE_SHIFT
@@ -240,6 +241,7 @@ def _response_lines(response: type[AsyncPacket], namespace: dict[str, Any], read
 
 
 def _compile(lines: list[str], namespace: dict[str, Any]) -> Handler:
-    exec("\n".join(lines) + "\n", namespace)
-    handler: Handler = namespace["serve"]
+    handler: Handler = compile_function(
+        lines, namespace, "serve", origin="fw1394.engine.fast_responder serve"
+    )
     return handler

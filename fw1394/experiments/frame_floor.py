@@ -27,7 +27,7 @@ from fw1394.packets.fast import encode_packet
 from fw1394.transport.config import BusConfig
 from fw1394.transport.idle import default_idle
 from fw1394.transport.medium import Medium
-from fw1394.transport.procs import die_with_parent
+from fw1394.transport.supervision.procs import die_with_parent
 from fw1394.transport.wire import AckPayload, FrameHeader, FrameKind, ack_byte
 
 #: The two ends' member IDs and physical IDs on their own bus.
@@ -100,7 +100,6 @@ class FrameFloor:
 
     def close(self) -> None:
         try:
-            self.responder.terminate()
             stop_process(self.responder)
         finally:
             self.medium.close()

@@ -31,7 +31,7 @@ from fw1394.packets.eth1394 import (
     Eth1394Request,
     build_request,
 )
-from fw1394.transport.procs import process_alive
+from fw1394.transport.supervision.procs import process_alive
 from fw1394.transport.wire import (
     ACK_PAYLOAD,
     HEADER_SIZE,

@@ -24,8 +24,8 @@ from fw1394.transport.idle import IdleStrategy
 from fw1394.transport.link import BusRefusedError, ResponderLink
 from fw1394.transport.membership import BusReset, Timing
 from fw1394.transport.node_express import node_turn
-from fw1394.transport.procs import run_until_signalled
 from fw1394.transport.station import Station
+from fw1394.transport.supervision.procs import run_until_signalled
 from fw1394.transport.wire import NO_BOARD, FrameTooLarge
 
 __all__ = ["BusRefusedError", "Node", "NodeOptions", "run_node"]

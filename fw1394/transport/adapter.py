@@ -64,8 +64,8 @@ from fw1394.transport.copies import HostLink
 from fw1394.transport.link import ACK, ACK_BYTES, ACK_SIZE, ASYNC_PACKET
 from fw1394.transport.membership import Timing
 from fw1394.transport.observe import BusView, watch
-from fw1394.transport.procs import die_with_parent
 from fw1394.transport.runtime import adapter_socket, prepare
+from fw1394.transport.supervision.procs import die_with_parent
 from fw1394.transport.wire import ACK_PAYLOAD, NO_PHY, FrameHeader, pack_table
 
 ADAPTER_MODULE = "fw1394.transport.adapter"

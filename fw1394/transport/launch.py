@@ -22,6 +22,7 @@ from fw1394.transport.runtime import (
     supervisor_alive,
 )
 from fw1394.transport.seal import KEY_ENV, KEY_FILE_ENV, write_key
+from fw1394.transport.supervision.stop import stop
 
 
 class LaunchError(Error, RuntimeError):
@@ -160,9 +161,6 @@ class LaunchedBus:
         """Stop everything; the pids that needed SIGKILL (none, normally)."""
         killed = stop_bus(self.directory)
         if self.process is not None:
-            try:
-                self.process.wait(5.0)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-                self.process.wait()
+            # stop_bus asked the supervisor already; this only reaps it (or kills it).
+            stop(self.process, ask=None)
         return killed

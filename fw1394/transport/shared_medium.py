@@ -88,7 +88,7 @@ from fw1394.transport.idle import (
     cores_enough,
     set_receive_timeout,
 )
-from fw1394.transport.procs import process_alive
+from fw1394.transport.supervision.procs import process_alive
 from fw1394.transport.wire import (
     CONTROL_KINDS,
     DESTINATION_OFFSET,

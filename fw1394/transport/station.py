@@ -27,8 +27,8 @@ from fw1394.transport.faults import FaultConfig, FaultInjector
 from fw1394.transport.idle import IdleStrategy, default_idle
 from fw1394.transport.media import open_medium
 from fw1394.transport.membership import Change, Membership, Role, Timing
-from fw1394.transport.procs import pid_namespace, process_alive
 from fw1394.transport.seal import DropCounts, Sealer, Verifier, key_for
+from fw1394.transport.supervision.procs import pid_namespace, process_alive
 from fw1394.transport.wire import (
     BROADCAST_PHY,
     CONTROL_KINDS,

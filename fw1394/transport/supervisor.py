@@ -20,8 +20,9 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import FrameType
 
-from fw1394.transport.procs import die_with_parent
 from fw1394.transport.runtime import NodeRecord, prepare, write_nodes
+from fw1394.transport.supervision.procs import die_with_parent
+from fw1394.transport.supervision.stop import stop
 
 #: The node program: run by module name (the node package sits above the transport).
 NODE_MODULE = "fw1394.node"
@@ -158,16 +159,7 @@ class Restart:
 
 
 def _end(children: list[subprocess.Popen[bytes]]) -> None:
-    for child in children:
-        if child.poll() is None:
-            child.terminate()
-    limit = time.monotonic() + 3.0
-    for child in children:
-        try:
-            child.wait(max(0.0, limit - time.monotonic()))
-        except subprocess.TimeoutExpired:
-            child.kill()
-            child.wait()
+    stop(children)
 
 
 if __name__ == "__main__":

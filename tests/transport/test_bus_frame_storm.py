@@ -30,8 +30,8 @@ from fw1394.transport.launch import LaunchedBus
 from fw1394.transport.media import BusMedium, open_medium
 from fw1394.transport.medium import Medium
 from fw1394.transport.membership import Timing
-from fw1394.transport.procs import process_alive
 from fw1394.transport.seal import Sealer, new_key
+from fw1394.transport.supervision.procs import process_alive
 from fw1394.transport.wire import DESTINATION_OFFSET
 
 pytestmark = pytest.mark.process

@@ -15,8 +15,8 @@ from fw1394.transport.bus_port import BusPort
 from fw1394.transport.config import BusConfig
 from fw1394.transport.launch import LaunchedBus
 from fw1394.transport.membership import Timing
-from fw1394.transport.procs import process_alive
 from fw1394.transport.seal import new_key
+from fw1394.transport.supervision.procs import process_alive
 
 ARGS = ("--heartbeat", "0.1", "--lease", "2.0")
 TIMING = Timing(heartbeat=0.1, lease=2.0)

@@ -63,8 +63,8 @@ from fw1394.transport.eth1394_addresses import (
 from fw1394.transport.faults import FaultConfig
 from fw1394.transport.link import ACK, ASYNC_PACKET, ResponderLink
 from fw1394.transport.membership import BusReset, Timing
-from fw1394.transport.procs import run_until_signalled
 from fw1394.transport.station import Station
+from fw1394.transport.supervision.procs import run_until_signalled
 from fw1394.transport.wire import FrameHeader, FrameKind, parse_ack
 
 POLL = 0.005
