@@ -412,7 +412,9 @@ def _shrunk(
     replay = replayer(settings, target, counted)
     if fresh_starts(target):
         shrunk = shrink(finding, replay, settings.shrink_budget, deadline=deadline)
-        return described(shrunk, settings, target) if shrunk.shrunk else shrunk
+        # The evidence of the shrunk stream is one more replay: not past the deadline.
+        in_time = deadline is None or time.monotonic() < deadline
+        return described(shrunk, settings, target) if shrunk.shrunk and in_time else shrunk
     # A remote node cannot start afresh: whatever its state has become stays, so only
     # a silence finding (which depends on the packet alone) is shrunk, from the last
     # batch; the whole stream stays in every other reproducer.
