@@ -171,10 +171,11 @@ def test_shrinking_stays_inside_the_duration_and_shows_progress(tmp_path: Path) 
             os.kill(int((tmp_path / "node.pid").read_text()), signal.SIGTERM)
     assert result.returncode == 1, result.stderr
     report = json.loads(result.stdout)
-    # Inside the duration, but for one replay (a node restart) begun before the end and
-    # the interpreter's start; generous for a loaded machine.
-    assert took < duration + 15, f"{took:.1f} s for --duration {duration}"
-    assert report["elapsed"] < duration + 5
+    # Inside the duration, but for one replay (a node restart, which waits for the new
+    # process to answer) begun before the end, and the interpreter's start: generous
+    # for a loaded machine. Unbounded, shrinking these findings takes minutes.
+    assert report["elapsed"] < duration + 10, report["elapsed"]
+    assert took < duration + 30, f"{took:.1f} s for --duration {duration}"
     assert report["findings"]
     # Some of it shrunk, and the rest said to be as found.
     assert any(f["shrunk"] for f in report["findings"]) or any(
