@@ -68,6 +68,7 @@ PLAN: dict[str, tuple[str, ...]] = {
     "fw1394/transport/seal.py": (
         "tests/transport/test_known_answer_frames.py",
         "tests/transport/test_bus_seal.py",
+        "tests/transport/test_seal_edges.py",
     ),
     "fw1394/transport/wire.py": (
         "tests/transport/test_known_answer_frames.py",
@@ -404,6 +405,12 @@ def score_entry(
             result.selected_runs += 1
             runs = [chosen]
         outcome, diff = test_mutant(item, runs, timeout)
+        ran = "all planned tests" if chosen is None else f"{len(chosen)} tests"
+        print(
+            f"  {result.sampled}/{len(items)} {outcome:11} {module}:{spec.start_pos[0]}"
+            f" {spec.operator_name} ({ran})",
+            file=sys.stderr,
+        )
         if outcome == "incompetent":
             result.incompetent += 1
         elif outcome == "survived":
