@@ -77,6 +77,7 @@ PLAN: dict[str, tuple[str, ...]] = {
     "fw1394/transport/membership.py": (
         "tests/transport/test_bus_membership.py",
         "tests/transport/test_membership_pause.py",
+        "tests/transport/test_membership_edges.py",
     ),
     "fw1394/transport/link.py": ("tests/transport/test_link.py",),
     "fw1394/boards": ("tests/boards",),
