@@ -2,7 +2,7 @@
 
     python bench/mutation.py                          # every plan entry (hours)
     python bench/mutation.py --sample 30              # 30 mutants per plan entry, seeded
-    python bench/mutation.py fw1394/transport/seal.py # named modules (their tests by the plan)
+    python bench/mutation.py fw1394/transport/sansio/seal.py  # named modules, tests by plan
     python bench/mutation.py --changed HEAD~1 --budget 600   # what a change touched
     python bench/mutation.py --json                   # one JSON object for scripts
 
@@ -65,16 +65,16 @@ PLAN: dict[str, tuple[str, ...]] = {
     "fw1394/crc": ("tests/crc", "tests/packets/test_packet_vectors.py"),
     "fw1394/packets": ("tests/packets", "tests/crc"),
     "fw1394/engine": ("tests/engine",),
-    "fw1394/transport/seal.py": (
+    "fw1394/transport/sansio/seal.py": (
         "tests/transport/test_known_answer_frames.py",
         "tests/transport/test_bus_seal.py",
         "tests/transport/test_seal_edges.py",
     ),
-    "fw1394/transport/wire.py": (
+    "fw1394/transport/sansio/wire.py": (
         "tests/transport/test_known_answer_frames.py",
         "tests/transport/test_bus_wire.py",
     ),
-    "fw1394/transport/membership.py": (
+    "fw1394/transport/sansio/membership.py": (
         "tests/transport/test_bus_membership.py",
         "tests/transport/test_membership_pause.py",
         "tests/transport/test_membership_edges.py",

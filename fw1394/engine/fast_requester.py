@@ -31,6 +31,7 @@ from fw1394.engine.requester import Requester
 from fw1394.engine.transaction import AWAIT_ACK, Transaction, same_node
 from fw1394.packets import AckCode, AsyncPacket, BlockReadResponse, QuadletReadResponse, Request
 from fw1394.packets.ack import ACK_BYTES
+from fw1394.packets.codegen import compile_function
 from fw1394.packets.fast import block_crc, data_block_source
 from fw1394.packets.frame import ACK_FRAME_SIZE
 from fw1394.packets.nodeid import BROADCAST_PHY
@@ -70,8 +71,8 @@ def _reader(cls: type[AsyncPacket]) -> Reader:
         "from_bytes": int.from_bytes,
         "to_bytes": int.to_bytes,
     }
-    exec("\n".join(lines) + "\n", namespace)
-    read: Reader = namespace["read"]
+    origin = f"fw1394.engine.fast_requester read {cls.__name__}"
+    read: Reader = compile_function(lines, namespace, "read", origin=origin)
     return read
 
 
