@@ -6,8 +6,14 @@ from __future__ import annotations
 
 from fake_bus import FAKE_TIMING, TAG, FakeBus, settled
 
-from fw1394.transport.membership import Role
-from fw1394.transport.wire import EVERY_MEMBER, FrameHeader, FrameKind, MemberInfo, pack_table
+from fw1394.transport.sansio.membership import Role
+from fw1394.transport.sansio.wire import (
+    EVERY_MEMBER,
+    FrameHeader,
+    FrameKind,
+    MemberInfo,
+    pack_table,
+)
 
 
 def test_the_next_member_steps_in_at_once_when_the_coordinator_leaves() -> None:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import hashlib
 import struct
 
-from fw1394.transport.seal import MAX_SENDERS, Verifier
+from fw1394.transport.sansio.seal import MAX_SENDERS, Verifier
 
 KEY = bytes(range(32))
 
