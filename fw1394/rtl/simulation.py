@@ -24,6 +24,7 @@ from typing import Any
 
 from fw1394.errors import Error
 from fw1394.rtl.portmap import HDL_DIR, PortMap, harness_verilog
+from fw1394.transport.supervision.stop import stop
 
 #: Verdicts never depend on wall time: the PHY model bounds every wait in clock
 #: cycles ([phy] in the port map), and the parent waits for the simulator as long
@@ -275,11 +276,7 @@ class Simulation:
                 self.stream.flush()
         except OSError:
             pass
-        try:
-            self.process.wait(10)
-        except subprocess.TimeoutExpired:
-            self.process.kill()
-            self.process.wait()
+        stop(self.process, ask=None)  # asked by the "close" message
         if hasattr(self, "sock"):
             self.sock.close()
         self._log.close()

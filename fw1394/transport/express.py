@@ -1,6 +1,6 @@
 """One pass for a blocking transaction: request out, answer in, data back.
 
-:class:`~fw1394.transport.bus_port.BusPort`'s blocking calls mostly run one
+:class:`~fw1394.host.bus_port.BusPort`'s blocking calls mostly run one
 transaction at a time, and mostly that transaction ends the common way: a read
 acked ``ack_pending`` with its response concatenated behind the ack, a write
 acked ``ack_complete``. The general path still makes a request packet and a

@@ -36,15 +36,15 @@ from fw1394.packets import AckCode, AsyncPacket
 from fw1394.packets.accessors import TLABEL
 from fw1394.packets.fast import decode_sound, encode_packet
 from fw1394.packets.nodeid import BROADCAST_ID, node_id, phy_of
-from fw1394.transport.membership import BusReset, Change, Excluded, Refused
-from fw1394.transport.station import Station
-from fw1394.transport.wire import (
+from fw1394.transport.sansio.membership import BusReset, Change, Excluded, Refused
+from fw1394.transport.sansio.wire import (
     ACK_PAYLOAD,
     FrameHeader,
     FrameKind,
     FrameTooLarge,
     ack_byte,
 )
+from fw1394.transport.station import Station
 
 #: Puts a frame on the link: kind, destination physical ID, payload.
 Send = Callable[[int, int, bytes], object]

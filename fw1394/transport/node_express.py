@@ -1,7 +1,7 @@
 """One pass for a node's turn: request frame in, ack frame (and response) out.
 
 A node's loop spends a quadlet read mostly on its way through the layers: the
-station unpacks the frame header into a :class:`~fw1394.transport.wire.FrameHeader`
+station unpacks the frame header into a :class:`~fw1394.transport.sansio.wire.FrameHeader`
 and slices the payload, the link settles the turn, checks the generation and
 hands the payload to the responder. :func:`node_turn` makes a turn that reads
 the header's generation, sender and sequence number in place and hands a
@@ -29,8 +29,8 @@ from collections.abc import Callable
 from fw1394.packets.accessors import TLABEL
 from fw1394.packets.nodeid import MAX_NODES
 from fw1394.transport.link import ASYNC_PACKET, ResponderLink
+from fw1394.transport.sansio.wire import HEADER, HEADER_SIZE, FrameHeader
 from fw1394.transport.station import skipping
-from fw1394.transport.wire import HEADER, HEADER_SIZE, FrameHeader
 
 _clock = time.monotonic
 _tlabel = TLABEL.of_bytes

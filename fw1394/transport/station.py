@@ -21,15 +21,13 @@ from itertools import count
 
 from fw1394.packets import Speed
 from fw1394.packets.frame import FRAME_TRAILER_SIZE
-from fw1394.transport import runtime
-from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig, FaultInjector
-from fw1394.transport.idle import IdleStrategy, default_idle
-from fw1394.transport.media import open_medium
-from fw1394.transport.membership import Change, Membership, Role, Timing
-from fw1394.transport.procs import pid_namespace, process_alive
-from fw1394.transport.seal import DropCounts, Sealer, Verifier, key_for
-from fw1394.transport.wire import (
+from fw1394.transport.media.choice import open_medium
+from fw1394.transport.media.idle import IdleStrategy, default_idle
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import Change, Membership, Role, Timing
+from fw1394.transport.sansio.seal import DropCounts, Sealer, Verifier
+from fw1394.transport.sansio.wire import (
     BROADCAST_PHY,
     CONTROL_KINDS,
     HEADER,
@@ -45,6 +43,9 @@ from fw1394.transport.wire import (
     FrameTooLarge,
     MemberInfo,
 )
+from fw1394.transport.supervision import runtime
+from fw1394.transport.supervision.bus_key import key_for
+from fw1394.transport.supervision.procs import pid_namespace, process_alive
 
 _FAULTED = frozenset({FrameKind.async_packet, FrameKind.ack})
 #: Kinds :class:`Membership` takes; only PHY packets of them also reach the owner.

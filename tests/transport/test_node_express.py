@@ -47,14 +47,13 @@ from fw1394.packets.fast import encode_packet
 from fw1394.transport import link as link_module
 from fw1394.transport import node_express
 from fw1394.transport import station as station_module
-from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig
-from fw1394.transport.idle import BLOCK, IdleStrategy
 from fw1394.transport.link import ResponderLink
+from fw1394.transport.media.idle import BLOCK, IdleStrategy
 from fw1394.transport.node_express import node_turn
-from fw1394.transport.seal import Sealer, new_key
-from fw1394.transport.station import Station
-from fw1394.transport.wire import (
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.seal import Sealer
+from fw1394.transport.sansio.wire import (
     AckPayload,
     FrameHeader,
     FrameKind,
@@ -62,6 +61,8 @@ from fw1394.transport.wire import (
     ack_byte,
     pack_table,
 )
+from fw1394.transport.station import Station
+from fw1394.transport.supervision.bus_key import new_key
 
 #: Room for a block read whose answer no datagram carries.
 MEMORY = 1 << 16

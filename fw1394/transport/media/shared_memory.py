@@ -8,7 +8,7 @@ in ring order, so every member and every tap sees one bus order, as every PHY
 of a cable repeats the same packets in the same order. Address recognition is
 the reader's: a member takes only frames for its physical ID, broadcast (63)
 or every member (0xFF), never its own, and a node never the acks of its
-responses (:mod:`fw1394.transport.bpf` filters the same way in the kernel for
+responses (:mod:`fw1394.transport.media.bpf` filters the same way in the kernel for
 the UDP medium).
 
 **Where.** ``/dev/shm/fw1394-UID/NAME/ring.NETNS`` (:func:`segment_path`),
@@ -79,8 +79,7 @@ from construct import Bytes, Int32un, Int64un, Struct
 from fw1394.packets.bitfields import struct_format
 from fw1394.packets.frame import field_offsets
 from fw1394.packets.nodeid import BROADCAST_PHY
-from fw1394.transport.config import BusConfig
-from fw1394.transport.idle import (
+from fw1394.transport.media.idle import (
     BLOCK,
     CHECK_EVERY,
     LONGEST_SLEEP,
@@ -88,8 +87,8 @@ from fw1394.transport.idle import (
     cores_enough,
     set_receive_timeout,
 )
-from fw1394.transport.procs import process_alive
-from fw1394.transport.wire import (
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.wire import (
     CONTROL_KINDS,
     DESTINATION_OFFSET,
     EVERY_MEMBER,
@@ -100,6 +99,7 @@ from fw1394.transport.wire import (
     TAG_OFFSET,
     FrameKind,
 )
+from fw1394.transport.supervision.procs import process_alive
 
 #: The segment's first bytes: what it is and its layout's version.
 SEGMENT_MAGIC = b"fw1394 bus ring3"
@@ -214,7 +214,7 @@ def _align(size: int) -> int:
 class SharedMedium:
     """The bus as a ring in shared memory, with the same calls as the UDP medium.
 
-    ``idle`` is how :meth:`receive` waits (:mod:`fw1394.transport.idle`).
+    ``idle`` is how :meth:`receive` waits (:mod:`fw1394.transport.media.idle`).
     """
 
     def __init__(
@@ -682,7 +682,7 @@ class SharedMedium:
 
     def sleep_until(self, deadline: Callable[[], float]) -> None:
         """Block, when nothing comes, until ``deadline()`` (monotonic) rather than
-        for one poll interval (at most :data:`~fw1394.transport.idle.LONGEST_SLEEP`)."""
+        for one poll interval (at most :data:`~fw1394.transport.media.idle.LONGEST_SLEEP`)."""
         self.deadline = deadline
 
     @property

@@ -16,20 +16,19 @@ import contextlib
 import json
 import os
 import shutil
-import signal
 import stat
 import tempfile
-import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
 from fw1394.errors import Error
-from fw1394.transport.config import check_bus_name
-from fw1394.transport.procs import process_alive
+from fw1394.transport.sansio.config import check_bus_name
+from fw1394.transport.supervision.procs import process_alive
+from fw1394.transport.supervision.stop import GRACE, Pid, stop
 
 if TYPE_CHECKING:
-    from fw1394.transport.wire import MemberInfo
+    from fw1394.transport.sansio.wire import MemberInfo
 
 
 class DropCounts(Protocol):
@@ -51,8 +50,8 @@ class DropCounts(Protocol):
     @property
     def total(self) -> int: ...
 
-SUPERVISOR_MODULE = "fw1394.transport.supervisor"
-#: The bus key's file in the bus's directory (fw1394.transport.seal).
+SUPERVISOR_MODULE = "fw1394.transport.supervision.supervisor"
+#: The bus key's file in the bus's directory (fw1394.transport.sansio.seal).
 KEY_FILE = "key"
 MEMBERS_DIR = "members"
 
@@ -188,7 +187,7 @@ def prepare(name: str, root: Path | None = None) -> Path:
 
 
 def adapter_socket(directory: Path) -> Path:
-    """Where the bus's host adapter listens (fw1394.transport.adapter)."""
+    """Where the bus's host adapter listens (fw1394.transport.host_adapter.server)."""
     return directory / "adapter.sock"
 
 
@@ -283,23 +282,20 @@ def supervisor_alive(directory: Path) -> int | None:
     return pid if pid is not None and is_ours(pid) else None
 
 
-def stop_bus(directory: Path, grace: float = 5.0) -> list[int]:
+def stop_bus(directory: Path, grace: float = GRACE) -> list[int]:
     """Stop the supervisor and every node it started; the pids that had to be killed."""
+    killed = []
     supervisor = supervisor_alive(directory)
     if supervisor is not None:
-        os.kill(supervisor, signal.SIGTERM)
-        _wait_gone([supervisor], grace)
-    leftovers = [n.pid for n in read_nodes(directory) if is_ours(n.pid)]
-    if supervisor is not None and is_ours(supervisor):
-        leftovers.append(supervisor)
-    for pid in leftovers:
-        os.kill(pid, signal.SIGKILL)
-    _wait_gone(leftovers, grace)
+        # The supervisor stops its nodes on SIGTERM; nodes it left running are killed.
+        killed += stop(Pid(supervisor, is_ours), grace).killed
+    nodes = [Pid(n.pid, is_ours) for n in read_nodes(directory)]
+    killed += stop(nodes, 0.0, ask=None).killed
     shutil.rmtree(directory, ignore_errors=True)
-    return leftovers
+    return killed
 
 
-def stop_members(pids: list[int], grace: float = 5.0) -> tuple[list[int], list[int], list[int]]:
+def stop_members(pids: list[int], grace: float = GRACE) -> tuple[list[int], list[int], list[int]]:
     """Stop member processes that no supervisor started (``node run`` by hand).
 
     SIGTERM (a node leaves the bus cleanly), then SIGKILL after ``grace``; only
@@ -307,25 +303,6 @@ def stop_members(pids: list[int], grace: float = 5.0) -> tuple[list[int], list[i
     those that could not be stopped (another user's, say).
     """
     ours = [pid for pid in pids if is_ours(pid)]
-    stopped, left = [], []
-    for pid in ours:
-        try:
-            os.kill(pid, signal.SIGTERM)
-            stopped.append(pid)
-        except OSError:
-            left.append(pid)
-    _wait_gone(stopped, grace)
-    killed = [pid for pid in stopped if is_ours(pid)]
-    for pid in killed:
-        with contextlib.suppress(OSError):
-            os.kill(pid, signal.SIGKILL)
-    _wait_gone(killed, grace)
-    left += [pid for pid in killed if is_ours(pid)]
-    left += [pid for pid in pids if pid not in ours and process_alive(pid)]
-    return [pid for pid in stopped if pid not in left], killed, left
-
-
-def _wait_gone(pids: list[int], seconds: float) -> None:
-    limit = time.monotonic() + seconds
-    while any(process_alive(pid) for pid in pids) and time.monotonic() < limit:
-        time.sleep(0.02)
+    outcome = stop([Pid(pid, is_ours) for pid in ours], grace)
+    left = outcome.left + [pid for pid in pids if pid not in ours and process_alive(pid)]
+    return [pid for pid in ours if pid not in left], outcome.killed, left
