@@ -18,9 +18,9 @@ import subprocess
 import sys
 from dataclasses import dataclass
 
-from fw1394.experiments.phase_progress import Progress
 from fw1394.experiments.summary import Summary, summarize
 from fw1394.experiments.timing import TargetError, pin, time_calls
+from fw1394.progress import Progress
 from fw1394.transport.media.idle import Waiter, default_idle
 from fw1394.transport.supervision.stop import stop
 

@@ -3,7 +3,8 @@
 The loop is plain blocking I/O: receive a frame (the socket's receive timeout
 bounds the wait), answer requests through the link layer (:class:`ResponderLink`),
 and run the station's timers when they are due. A common request takes that turn
-in one pass (:func:`~fw1394.transport.node_express.node_turn`). A request is acked in one
+in one pass (:func:`~fw1394.transport.node_express.node_turn`, the responder's
+:meth:`~fw1394.engine.Responder.serve`). A request is acked in one
 frame that also carries the response when the policy concatenates them (same
 bus tenure); a split response is a subaction of its own.
 """

@@ -5,6 +5,7 @@ from __future__ import annotations
 import sys
 from typing import Any
 
+from fw1394.boards.config_rom import with_config_rom
 from fw1394.boards.registry import BOARDS, board_defects, make_board
 from fw1394.engine.policy import POLICIES
 from fw1394.errors import Error
@@ -48,7 +49,10 @@ def run(node: NodeDescription) -> None:
                 quiet=node.quiet,
             )
             return
-        space = _board(node)
+        # Every node has a configuration ROM with a GUID of its own (fw1394.boards.config_rom).
+        space = with_config_rom(
+            _board(node), bus=name, board_id=node.board_id, rank=node.rank, model=node.board
+        )
         options = NodeOptions(
             config=node.bus,
             board_id=node.board_id,

@@ -12,7 +12,7 @@ import termios
 
 import pytest
 
-from fw1394.experiments.phase_progress import Progress
+from fw1394.progress import Progress
 
 
 def run_phase(progress: Progress) -> None:
