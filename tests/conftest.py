@@ -30,6 +30,20 @@ from fw1394.transport.config import BusConfig
 from fw1394.transport.launch import LaunchedBus
 
 
+def pytest_configure(config: pytest.Config) -> None:
+    # pytest-xdist hands tests out in big consecutive chunks, so a worker can be
+    # left with several long tests while the other has run dry. One at a time,
+    # as workers free up, and the long tests first (below), the run ends about
+    # when its longest test does, not later. An explicit --maxschedchunk wins.
+    if config.pluginmanager.hasplugin("xdist") and config.getoption("maxschedchunk") is None:
+        config.option.maxschedchunk = 1
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The ``slow`` tests first (each keeps its place among them), then the rest."""
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
+
+
 @pytest.fixture
 def unique_bus_name(request: pytest.FixtureRequest) -> str:
     """A bus name no other test, and no other test run on this machine, uses."""
