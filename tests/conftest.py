@@ -40,8 +40,18 @@ def pytest_configure(config: pytest.Config) -> None:
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """The ``slow`` tests first (each keeps its place among them), then the rest."""
-    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
+    """The ``slow`` tests first, then those that start processes, then the rest.
+
+    Tests that start processes take most of the run and mostly wait; the many
+    short in-process tests then fill the end. Each keeps its place in its group.
+    """
+
+    def group(item: pytest.Item) -> int:
+        if item.get_closest_marker("slow") is not None:
+            return 0
+        return 1 if item.get_closest_marker("process") is not None else 2
+
+    items.sort(key=group)
 
 
 @pytest.fixture
