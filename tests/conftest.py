@@ -26,8 +26,8 @@ from bus_support import LaunchBus, bus_name, stop, wait_until_gone
 from spawn_guard import only_marked_tests_spawn as only_marked_tests_spawn
 from spawn_guard import pytest_runtest_setup as pytest_runtest_setup
 
-from fw1394.transport.config import BusConfig
-from fw1394.transport.launch import LaunchedBus
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.supervision.launch import LaunchedBus
 
 
 def pytest_configure(config: pytest.Config) -> None:

@@ -19,8 +19,8 @@ import pytest
 from bus_support import bus_name, wait_hosts_dropped, wait_until_gone
 from polling import wait_until
 
-from fw1394.transport.config import BusConfig
-from fw1394.transport.launch import LaunchedBus
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.supervision.launch import LaunchedBus
 
 # A lease of 2 s: a loaded machine that stalls a node for a second resets no bus here.
 ARGS = ("--heartbeat", "0.1", "--lease", "2.0")
@@ -33,8 +33,8 @@ import json, signal, sys, time
 from collections import deque
 from fw1394.engine import ReadCompleted, TransactionFailed
 from fw1394.transport.bus_host import BusHost
-from fw1394.transport.config import BusConfig
-from fw1394.transport.membership import Timing
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import Timing
 
 name, depth = sys.argv[1], int(sys.argv[2])
 told = []
