@@ -131,13 +131,12 @@ def _settings(args: argparse.Namespace) -> Any:
 
 def run_bench_command(args: argparse.Namespace) -> int:
     from fw1394.boards import BOARDS
-    from fw1394.experiments.connect import TargetUnavailable, parse_target
+    from fw1394.experiments.connect import parse_target
     from fw1394.experiments.phase_progress import Progress
     from fw1394.experiments.report_text import render
     from fw1394.experiments.results import digest
     from fw1394.experiments.run import run_bench
     from fw1394.experiments.timing import MeasurementError
-    from fw1394.transport.eth1394_addresses import AddressRefusedError
 
     settings = _settings(args)
     try:
@@ -159,21 +158,15 @@ def run_bench_command(args: argparse.Namespace) -> int:
             progress=progress,
             timeout=args.timeout,
         )
-    except (TargetUnavailable, AddressRefusedError) as error:
-        raise CliError(str(error)) from None
     except MeasurementError as error:
         print(f"fw1394: bench failed: {error}", file=sys.stderr)
         return 1
     numbers = digest(result)
     if args.plots is not None:
         # Imported only here: plotting pulls in matplotlib and the capture package's helpers.
-        from fw1394.capture.views.trace_plots import PlotError
         from fw1394.experiments.figures import write_plots
 
-        try:
-            paths = write_plots(result, numbers, args.plots)
-        except PlotError as error:
-            raise CliError(str(error)) from None
+        paths = write_plots(result, numbers, args.plots)
         numbers["plots"] = [str(path) for path in paths]
     print(json.dumps(numbers) if args.json else render(numbers), end="\n" if args.json else "")
     return 0

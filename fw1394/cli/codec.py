@@ -10,7 +10,8 @@ from collections.abc import Iterator
 from enum import IntEnum
 from typing import Any
 
-from fw1394.cli.common import CliError, hex_bytes, integer, print_table
+from fw1394.cli.common import CliError, integer, print_table
+from fw1394.errors import Error
 from fw1394.packets import (
     ASYNC_CLASSES,
     PHY_CLASSES,
@@ -18,7 +19,6 @@ from fw1394.packets import (
     AckCode,
     ExtendedTCode,
     Packet,
-    PacketError,
     PhyPacket,
     PortStatus,
     RCode,
@@ -30,7 +30,7 @@ from fw1394.packets import (
     summary,
     to_json,
 )
-from fw1394.packets.hextext import quadlets_hex
+from fw1394.packets.hextext import HexTextError, hex_bytes, quadlets_hex
 
 DECODE_EPILOG = """\
 input: one packet as hex arguments, or one packet per line on standard input.
@@ -322,7 +322,7 @@ def _add_field_options(parser: argparse.ArgumentParser, cls: type[Any]) -> None:
 def hex_bytes_argument(text: str) -> bytes:
     try:
         return hex_bytes(text)
-    except CliError as error:
+    except HexTextError as error:
         raise argparse.ArgumentTypeError(str(error)) from None
 
 
@@ -378,7 +378,7 @@ def run_decode(args: argparse.Namespace) -> int:
                 _print_packet(
                     decode(raw, crc=not args.no_crc, strict=not args.lenient, kind=args.kind), args
                 )
-        except (CliError, PacketError) as error:
+        except Error as error:  # this line's packet: report it, go on with the next
             print(f"fw1394: error: {where}: {error}", file=sys.stderr)
             status = 2
     if not given:
@@ -409,14 +409,11 @@ def _split_eth1394(payload: bytes) -> tuple[dict[str, Any], bytes]:
     """
     from fw1394.packets import eth1394
 
-    try:
-        if len(payload) % 4 == 2:
-            request = eth1394.parse_request(payload)
-            framing = {"direction": "request", **dataclasses.asdict(request.control)}
-            return framing, request.packet
-        response = eth1394.parse_response(payload)
-    except eth1394.Eth1394Error as error:
-        raise CliError(f"Eth1394 framing: {error}") from None
+    if len(payload) % 4 == 2:
+        request = eth1394.parse_request(payload)
+        framing = {"direction": "request", **dataclasses.asdict(request.control)}
+        return framing, request.packet
+    response = eth1394.parse_response(payload)
     return {"direction": "response", **dataclasses.asdict(response.extra)}, response.packet
 
 

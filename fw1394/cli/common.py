@@ -12,7 +12,6 @@ from contextlib import contextmanager
 from typing import Any
 
 from fw1394.errors import UsageError
-from fw1394.packets import hextext
 
 
 class CliError(UsageError):
@@ -72,14 +71,6 @@ def integer(text: str) -> int:
         return int(text.replace("_", ""), 0)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number (use 123 or 0x7b)") from None
-
-
-def hex_bytes(text: str) -> bytes:
-    """:func:`fw1394.packets.hextext.hex_bytes`, its error as a one-line :class:`CliError`."""
-    try:
-        return hextext.hex_bytes(text)
-    except hextext.HexTextError as error:
-        raise CliError(str(error)) from None
 
 
 def print_json_lines(objects: Iterable[dict[str, Any]]) -> None:

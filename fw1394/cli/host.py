@@ -18,10 +18,10 @@ import argparse
 import json
 from typing import Any
 
-from fw1394.cli.attach import add_attach_options, host_member, open_port, port_errors
-from fw1394.cli.bus import add_bus_options, add_member_options, bus_config
+from fw1394.cli.attach import add_attach_options, host_member, open_port
 from fw1394.cli.common import CliError, fail, integer
 from fw1394.errors import Error
+from fw1394.node.description import add_bus_options, add_member_options, bus_config
 from fw1394.packets import ExtendedTCode, RCode, name_of
 from fw1394.packets.hextext import quadlets_hex
 from fw1394.packets.nodeid import BROADCAST_PHY
@@ -155,11 +155,10 @@ def _transact(args: argparse.Namespace, what: str, action: Any) -> Any:
     ID, a reset before it went out means looking the board up again; by physical
     ID it is the caller's to decide, so the command fails with ``bus_reset``.
     """
-    from fw1394.host.addressing import BoardNotOnBusError, BoardPort
+    from fw1394.host.addressing import BoardPort
     from fw1394.transport.bus_host import StaleGenerationError, TransactionError
 
     config = bus_config(args)
-    reaching: tuple[type[Exception], ...] = (*port_errors(), ValueError, BoardNotOnBusError)
     with open_port(args) as port:
         boards = BoardPort(port)
         nodes: dict[int, Any] = {}
@@ -177,7 +176,7 @@ def _transact(args: argparse.Namespace, what: str, action: Any) -> Any:
                 except StaleGenerationError:
                     if args.board_id is None or attempt == _ATTEMPTS - 1:
                         raise
-        except reaching as error:  # ValueError: a block too long for this bus
+        except ValueError as error:  # the bus host's plain ValueError: a block too long
             raise CliError(str(error)) from None
         except TransactionError as error:
             failure = {"reason": str(error.reason)}

@@ -13,9 +13,9 @@ import argparse
 from collections.abc import Sequence
 from typing import Any
 
-from fw1394.cli.attach import add_attach_options, host_member, open_port, port_errors
-from fw1394.cli.bus import add_bus_options, add_member_options
+from fw1394.cli.attach import add_attach_options, host_member, open_port
 from fw1394.cli.common import CliError, print_json_lines, print_table
+from fw1394.node.description import add_bus_options, add_member_options
 
 EPILOG = """\
 examples:
@@ -104,28 +104,25 @@ def run(args: argparse.Namespace) -> int:
     from fw1394.packets.nodeid import node_id
 
     with open_port(args) as port:
-        try:
-            me = host_member(port)
-            nodes = port.nodes()
-            generation = port.generation
-            if not nodes:
-                raise CliError(f"bus {args.name!r} has no nodes (fw1394 bus up --nodes N)")
-            kinds = member_kinds(args.name, me, [m for _, m in nodes])
-            rows = []
-            for (phy, member), kind in zip(nodes, kinds, strict=True):
-                row: dict[str, Any] = {
-                    "phy_id": phy,
-                    "node_id": node_id(phy),
-                    "generation": generation,
-                    "role": "host" if member.host else "node",
-                    "kind": kind,
-                    "board_id": None if member.board_id == 0xFF else member.board_id,
-                    "pid": member.pid,
-                }
-                row.update(describe_rom(read_rom(port, phy, generation)))
-                rows.append(row)
-        except port_errors() as error:
-            raise CliError(str(error)) from None
+        me = host_member(port)
+        nodes = port.nodes()
+        generation = port.generation
+        if not nodes:
+            raise CliError(f"bus {args.name!r} has no nodes (fw1394 bus up --nodes N)")
+        kinds = member_kinds(args.name, me, [m for _, m in nodes])
+        rows = []
+        for (phy, member), kind in zip(nodes, kinds, strict=True):
+            row: dict[str, Any] = {
+                "phy_id": phy,
+                "node_id": node_id(phy),
+                "generation": generation,
+                "role": "host" if member.host else "node",
+                "kind": kind,
+                "board_id": None if member.board_id == 0xFF else member.board_id,
+                "pid": member.pid,
+            }
+            row.update(describe_rom(read_rom(port, phy, generation)))
+            rows.append(row)
     if args.json:
         print_json_lines(rows)
         return 0

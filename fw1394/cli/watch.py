@@ -9,9 +9,9 @@ import sys
 import time
 from typing import TYPE_CHECKING, Any
 
-from fw1394.cli.attach import add_attach_options, host_member, open_port, port_errors
-from fw1394.cli.bus import add_bus_options, add_member_options
+from fw1394.cli.attach import add_attach_options, host_member, open_port
 from fw1394.cli.common import CliError, integer
+from fw1394.node.description import add_bus_options, add_member_options
 
 if TYPE_CHECKING:
     from fw1394.host.adapter_port import AdapterPort
@@ -114,13 +114,10 @@ def _check(args: argparse.Namespace) -> None:
 def run(args: argparse.Namespace) -> int:
     _check(args)
     with open_port(args) as port:
-        try:
-            boards = _attach(port, args)
-            if args.once:
-                return _snapshot(boards, args)
-            return _live(boards, args)
-        except port_errors() as error:
-            raise CliError(str(error)) from None
+        boards = _attach(port, args)
+        if args.once:
+            return _snapshot(boards, args)
+        return _live(boards, args)
 
 
 def _attach(port: AdapterPort | BusPort, args: argparse.Namespace) -> list[WatchedBoard]:
