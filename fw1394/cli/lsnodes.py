@@ -5,6 +5,10 @@ board kind, board ID and, read from its configuration ROM (CSR offset 0x400)
 through the bus's adapter, its GUID (EUI-64), vendor and model. A board
 without a ROM (the thesis board reads 0 there, plain memory has no CSR
 space) is listed as having none.
+
+With ``--json`` the GUID is a string of 16 hex digits after ``0x``
+(``"0x00fa610e00000003"``), as tools print EUI-64s: a JSON number above 2**53
+loses digits in most readers, JavaScript's and jq's among them.
 """
 
 from __future__ import annotations
@@ -21,6 +25,10 @@ EPILOG = """\
 examples:
   fw1394 lsnodes                       every node of bus "default"
   fw1394 lsnodes --name arm --json     one JSON object per node
+
+In --json, "guid" is a string of 16 hex digits after 0x ("0x00fa610e00000003"):
+a 64-bit number does not survive JSON readers that use doubles; "rom" is false
+(and "guid" absent) for a node without a configuration ROM.
 """
 #: Quadlets of one ROM read at most (1 KiB of ROM space).
 _ROM_QUADLETS = 256
@@ -36,7 +44,11 @@ def register(subparsers: Any) -> None:
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("--json", action="store_true", help="one JSON object per node")
+    parser.add_argument(
+        "--json",
+        action="store_true",
+        help='one JSON object per node ("guid": "0x" and 16 hex digits)',
+    )
     parser.add_argument(
         "--timeout", type=float, default=0.5, help="ack and response timeout (s) of --own-member"
     )
@@ -79,6 +91,11 @@ def read_rom(port: Any, node: int, generation: int) -> dict[int, int] | None:
     return quadlets
 
 
+def guid_text(eui64: int) -> str:
+    """A GUID as JSON carries it: ``0x`` and 16 hex digits, leading zeros kept."""
+    return f"0x{eui64:016x}"
+
+
 def describe_rom(quadlets: dict[int, int] | None) -> dict[str, Any]:
     """GUID, vendor and model of a ROM (the text leaves after Vendor and Model)."""
     from fw1394.capture.analysis.rom_decode import decode_rom
@@ -86,7 +103,8 @@ def describe_rom(quadlets: dict[int, int] | None) -> dict[str, Any]:
     if quadlets is None:
         return {"rom": False}
     report = decode_rom(quadlets)
-    found: dict[str, Any] = {"rom": True, "guid": report.eui64}
+    guid = None if report.eui64 is None else guid_text(report.eui64)
+    found: dict[str, Any] = {"rom": True, "guid": guid}
     texts = {block.address: block.text for block in report.blocks if block.text is not None}
     root = next((b for b in report.blocks if b.kind == "root_directory"), None)
     previous = None
@@ -128,7 +146,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     table = [("PHY", "NODE", "GEN", "KIND", "BOARD", "GUID", "VENDOR", "MODEL")]
     for row in rows:
-        guid = f"{row['guid']:016x}" if row.get("guid") is not None else "-"
+        guid = row["guid"][2:] if row.get("guid") is not None else "-"
         if not row["rom"]:
             guid, vendor, model = NO_ROM, "", ""
         else:

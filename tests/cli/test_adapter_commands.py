@@ -9,6 +9,7 @@ the board registry, the 1394 codec.
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Iterator
 
 import pytest
@@ -59,7 +60,9 @@ def test_lsnodes_decodes_the_rom_where_there_is_one(bus: AdapterBus) -> None:
     rom = build_config_rom(board_id=QLA1, firmware=DEFAULT_FIRMWARE, has_ethernet=True)
     qla1 = rows[QLA1]
     assert qla1["rom"] is True
-    assert qla1["guid"] == rom[3] << 32 | rom[4]  # bus info block: node vendor/chip IDs
+    # Bus info block quadlets 3 and 4: node vendor ID and chip ID, as one hex string.
+    assert qla1["guid"] == f"0x{rom[3]:08x}{rom[4]:08x}"
+    assert re.fullmatch(r"0x[0-9a-f]{16}", qla1["guid"])
     assert qla1["vendor"] == "JHU LCSR" and qla1["vendor_id"] == 0xFA610E
     assert qla1["model"] == "FPGA2/QLA"
     assert rows[MEMORY]["rom"] is False and rows[SNAKE]["rom"] is False
