@@ -15,12 +15,11 @@ round trip on different CPUs).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
 
-from fw1394.cli.common import CliError
+from fw1394.cli.common import CliError, print_json
 
 EXAMPLES = """\
 examples:
@@ -168,5 +167,8 @@ def run_bench_command(args: argparse.Namespace) -> int:
 
         paths = write_plots(result, numbers, args.plots)
         numbers["plots"] = [str(path) for path in paths]
-    print(json.dumps(numbers) if args.json else render(numbers), end="\n" if args.json else "")
+    if args.json:
+        print_json(numbers)
+    else:
+        print(render(numbers), end="")
     return 0

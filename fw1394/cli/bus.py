@@ -7,7 +7,7 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from fw1394.cli.common import CliError, print_json_lines, print_table
+from fw1394.cli.common import CliError, print_json, print_table
 from fw1394.errors import Error
 from fw1394.node import description
 from fw1394.node.description import (
@@ -67,7 +67,7 @@ def member_rows(members: Sequence[MemberInfo]) -> list[dict[str, Any]]:
 
 def print_members(rows: list[dict[str, Any]], as_json: bool) -> None:
     if as_json:
-        print_json_lines(rows)
+        print_json(*rows)
         return
     counted = any("dropped" in row for row in rows)
     heading: tuple[str, ...] = ("PHY", "ROLE", "KIND", "GEN", "BOARD", "PID", "ADDRESS")
@@ -260,7 +260,7 @@ def bus_status(args: argparse.Namespace) -> int:
     security = "keyed" if keyed else "insecure"
     if args.json:
         # One line per member, as ever; the bus's security rides on every line.
-        print_json_lines([{**row, "security": security} for row in rows])
+        print_json(*({**row, "security": security} for row in rows))
     else:
         dropped = sum(row["dropped"] or 0 for row in rows)
         replayed = sum(row["replayed"] or 0 for row in rows)
@@ -289,7 +289,7 @@ NO_KEY_HERE = "keyed (no key here)"
 def _status_without_key(name: str, generation: int, as_json: bool) -> int:
     # Members only from beacons whose MAC verified: without the key, none did.
     if as_json:
-        print_json_lines([{"generation": generation, "security": NO_KEY_HERE, "members": None}])
+        print_json({"generation": generation, "security": NO_KEY_HERE, "members": None})
     else:
         print(
             f"bus {name!r}: generation {generation}, {NO_KEY_HERE}: members not shown, "
@@ -372,7 +372,7 @@ def bus_key(args: argparse.Namespace) -> int:
     if key is None:
         raise CliError(f"bus {config.name!r} has no key here (not up, or up with --insecure)")
     if args.json:
-        print_json_lines([{"bus": config.name, "key": key.hex()}])
+        print_json({"bus": config.name, "key": key.hex()})
     else:
         print(key.hex())
     return 0

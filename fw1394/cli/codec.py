@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import sys
 from collections.abc import Iterator
 from enum import IntEnum
 from typing import Any
 
-from fw1394.cli.common import CliError, integer, print_table
+from fw1394.cli.common import CliError, integer, print_json, print_table
 from fw1394.errors import Error
 from fw1394.packets import (
     ASYNC_CLASSES,
@@ -341,7 +340,7 @@ def run_encode(args: argparse.Namespace) -> int:
     text = raw.hex() if isinstance(packet, Ack) else quadlets_hex(raw)
     if args.json:
         decoded = decode(raw, crc=not args.no_crc, strict=False, kind=_kind(packet))
-        print(json.dumps({"hex": text, **to_json(decoded)}))
+        print_json({"hex": text, **to_json(decoded)})
     else:
         print(text)
     return 0
@@ -394,7 +393,7 @@ def _print_packet(
     packet: Packet, args: argparse.Namespace, extra: dict[str, Any] | None = None
 ) -> None:
     if args.json:
-        print(json.dumps({**(extra or {}), **to_json(packet)}))
+        print_json({**(extra or {}), **to_json(packet)})
         return
     print(summary(packet))
     if not args.quiet:
@@ -423,7 +422,10 @@ def _print_jhu(raw: bytes, args: argparse.Namespace) -> None:
         raise CliError("Eth1394 request has a control word but no 1394 packet")
     if not packet_bytes:
         # The FPGA's 8-byte "read dropped" notice: framing only.
-        print(json.dumps({"eth1394": framing}) if args.json else _framing_line(framing))
+        if args.json:
+            print_json({"eth1394": framing})
+        else:
+            print(_framing_line(framing))
         return
     # The FPGA's Ethernet path sends zero CRCs and the host never checks them, so
     # responses are decoded leniently: their CRC state is shown, not enforced.

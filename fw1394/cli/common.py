@@ -73,7 +73,12 @@ def integer(text: str) -> int:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number (use 123 or 0x7b)") from None
 
 
-def print_json_lines(objects: Iterable[dict[str, Any]]) -> None:
+def print_json(*objects: Any) -> None:
+    """Each object as one line of compact JSON on standard output (JSON Lines).
+
+    Every ``--json`` of the command line prints through here, so every one
+    writes the same text for the same object: ``json.dumps``'s default
+    separators, non-ASCII escaped, one ``\\n`` after each object."""
     for obj in objects:
         print(json.dumps(obj))
 

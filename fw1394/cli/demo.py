@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 from pathlib import Path
 from typing import Any
 
-from fw1394.cli.common import CliError
+from fw1394.cli.common import CliError, print_json
 
 EPILOG = """\
 What it does: starts a virtual 1394 bus with the two FPGA boards of the
@@ -132,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
         numbers["capture"] = str(args.capture)
         numbers["traffic"] = traffic(args.capture)
     if args.json:
-        print(json.dumps(numbers))
+        print_json(numbers)
     else:
         _print_summary(numbers)
     return 0

@@ -15,11 +15,10 @@ board is looked up in the current generation (and again after a reset).
 from __future__ import annotations
 
 import argparse
-import json
 from typing import Any
 
 from fw1394.cli.attach import add_attach_options, host_member, open_port
-from fw1394.cli.common import CliError, fail, integer
+from fw1394.cli.common import CliError, fail, integer, print_json
 from fw1394.errors import Error
 from fw1394.node.description import add_bus_options, add_member_options, bus_config
 from fw1394.packets import ExtendedTCode, RCode, name_of
@@ -250,7 +249,7 @@ def _failed(args: argparse.Namespace, error: _Failed) -> int:
     # Scripts asking for JSON get the failure as JSON on stdout too, not only the
     # line on stderr: {"node": 0, "offset": 3, "error": {"reason": ..., "rcode": ...}}.
     if args.json:
-        print(json.dumps({**_where(args), "offset": args.offset, "error": error.failure}))
+        print_json({**_where(args), "offset": args.offset, "error": error.failure})
     return fail(str(error), 1)
 
 
@@ -264,7 +263,10 @@ def _where(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _report(args: argparse.Namespace, result: dict[str, Any], text: str) -> None:
-    print(json.dumps(result) if args.json else text)
+    if args.json:
+        print_json(result)
+    else:
+        print(text)
 
 
 def run_read(args: argparse.Namespace) -> int:

@@ -18,7 +18,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from fw1394.cli.attach import add_attach_options, host_member, open_port
-from fw1394.cli.common import CliError, print_json_lines, print_table
+from fw1394.cli.common import CliError, print_json, print_table
 from fw1394.node.description import add_bus_options, add_member_options
 
 EPILOG = """\
@@ -142,7 +142,7 @@ def run(args: argparse.Namespace) -> int:
             row.update(describe_rom(read_rom(port, phy, generation)))
             rows.append(row)
     if args.json:
-        print_json_lines(rows)
+        print_json(*rows)
         return 0
     table = [("PHY", "NODE", "GEN", "KIND", "BOARD", "GUID", "VENDOR", "MODEL")]
     for row in rows:

@@ -10,11 +10,10 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 from typing import Any
 
 from fw1394.cli.attach import add_attach_options, open_port
-from fw1394.cli.common import CliError, fail, integer, print_table
+from fw1394.cli.common import CliError, fail, integer, print_json, print_table
 from fw1394.node.description import add_bus_options, add_member_options
 from fw1394.packets.hextext import hex_bytes
 
@@ -175,7 +174,7 @@ def run(args: argparse.Namespace) -> int:
         crc_ok = sent.get("fields", {}).get("header_crc_ok", True)
         result["silence"] = _silence(port_kind(args, destination), packet, crc_ok)
     if args.json:
-        print(json.dumps(result))
+        print_json(result)
         return 0
     print(f"sent to node {destination}: {sent['summary']}")
     print(f"ack:      {result['ack'] or 'none (silence)'}")

@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import json
 import shutil
 import sys
 import time
 from typing import TYPE_CHECKING, Any
 
 from fw1394.cli.attach import add_attach_options, host_member, open_port
-from fw1394.cli.common import CliError, integer
+from fw1394.cli.common import CliError, integer, print_json
 from fw1394.node.description import add_bus_options, add_member_options
 
 if TYPE_CHECKING:
@@ -160,7 +159,7 @@ def _snapshot(boards: list[WatchedBoard], args: argparse.Namespace) -> int:
     readings = [_read_once(watched, args.read_only) for watched in boards]
     if args.json:
         objects = [reading_dict(reading, conversions) for reading in readings]
-        print(json.dumps({"bus": args.name, "time": time.time(), "boards": objects}))
+        print_json({"bus": args.name, "time": time.time(), "boards": objects})
         return 0
     title = f"fw1394 watch  bus {args.name}  {time.strftime('%Y-%m-%d %H:%M:%S')}"
     panels = [BoardPanel(r.node, r.kind, r) for r in readings]
