@@ -42,6 +42,7 @@ from fw1394.fuzz.offsets import offset_model
 from fw1394.fuzz.reference import board
 from fw1394.fuzz.settings import Settings
 from fw1394.fuzz.workers import run as run_jobs
+from fw1394.transport.supervision.stop import stop
 
 NODE = 0xFFC0
 IN_PROCESS_TARGET = 5_000
@@ -87,12 +88,7 @@ def child(*command: str) -> Iterator[subprocess.Popen[str]]:
     try:
         yield process
     finally:
-        process.terminate()
-        try:
-            process.wait(5)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
+        stop(process)
         if process.stdout is not None:
             process.stdout.close()
 

@@ -70,8 +70,7 @@ RUN = textwrap.dedent(
     before = cpu(server.pid)
     host = subprocess.run(cli + args, capture_output=True, text=True)
     after = cpu(server.pid)
-    server.terminate()
-    server.wait()
+    stop(server)
     report = json.loads(host.stdout)
     # The server also served the scan (a few ms): a small overestimate.
     report["server_cpu_ms_per_cycle"] = 1e3 * (after - before) / int(cycles)

@@ -10,10 +10,11 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from fw1394.transport.config import BusConfig
-from fw1394.transport.launch import LaunchedBus
-from fw1394.transport.observe import watch
-from fw1394.transport.procs import process_alive
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.supervision.launch import LaunchedBus
+from fw1394.transport.supervision.observe import watch
+from fw1394.transport.supervision.procs import process_alive
+from fw1394.transport.supervision.stop import stop as stop
 
 # The ``launch_bus`` fixture: ``launch_bus(nodes, tag=, board=, node_arguments=)``.
 LaunchBus = Callable[..., LaunchedBus]
@@ -49,16 +50,6 @@ def node_command(name: str, rank: int, *extra: str) -> list[str]:
 
 def start_node(name: str, rank: int, *extra: str) -> subprocess.Popen[bytes]:
     return subprocess.Popen(node_command(name, rank, *extra), stdin=subprocess.DEVNULL)
-
-
-def stop(process: subprocess.Popen[bytes]) -> None:
-    if process.poll() is None:
-        process.terminate()
-        try:
-            process.wait(5)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
 
 
 def processes_mentioning(text: str) -> list[int]:

@@ -19,8 +19,8 @@ from fw1394.node.description import bus_config, faults, timing
 
 if TYPE_CHECKING:
     from fw1394.host.adapter_port import AdapterPort
-    from fw1394.transport.bus_port import BusPort
-    from fw1394.transport.wire import MemberInfo
+    from fw1394.host.bus_port import BusPort
+    from fw1394.transport.sansio.wire import MemberInfo
 
 __all__ = ["add_attach_options", "host_member", "host_port", "open_port"]
 
@@ -31,7 +31,7 @@ ADAPTER_REPLY_TIMEOUT = 10.0
 
 def host_port(args: argparse.Namespace) -> BusPort:
     """A host port on the bus the options name, waiting ``--timeout`` per transaction."""
-    from fw1394.transport.bus_port import BusPort
+    from fw1394.host.bus_port import BusPort
 
     config = bus_config(args)
     try:

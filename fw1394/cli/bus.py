@@ -21,9 +21,9 @@ from fw1394.node.description import (
     member_arguments,
     timing,
 )
-from fw1394.transport.config import BusConfig
-from fw1394.transport.procs import pid_namespace
-from fw1394.transport.wire import MAX_MEMBERS, MemberInfo
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.wire import MAX_MEMBERS, MemberInfo
+from fw1394.transport.supervision.procs import pid_namespace
 
 __all__ = ["register", "standalone"]
 
@@ -164,9 +164,9 @@ def _bus_handler(action: str) -> Any:
 
 # -- handlers -----------------------------------------------------------------------------
 def bus_up(args: argparse.Namespace) -> int:
-    from fw1394.transport.adapter import wait_adapter
-    from fw1394.transport.launch import AlreadyUpError, LaunchedBus, LaunchError
-    from fw1394.transport.runtime import prepare
+    from fw1394.transport.host_adapter.server import wait_adapter
+    from fw1394.transport.supervision.launch import AlreadyUpError, LaunchedBus, LaunchError
+    from fw1394.transport.supervision.runtime import prepare
 
     config = bus_config(args)
     if not 1 <= args.nodes <= MAX_MEMBERS:
@@ -185,11 +185,11 @@ def bus_up(args: argparse.Namespace) -> int:
     node_arguments += max(ethernet, key=len)  # kinds without an Ethernet side ignore them
     # planted bugs for the fuzzer, handed on to each node process
     node_arguments += tuple(part for name in args.defect for part in ("--defect", name))
-    if args.nodes < MAX_MEMBERS:  # the bus's shared host node (fw1394.transport.adapter)
+    if args.nodes < MAX_MEMBERS:  # the bus's shared host node (transport.host_adapter)
         node_arguments += ("--adapter",)
     timing(args)
     faults(args)
-    from fw1394.transport.seal import new_key
+    from fw1394.transport.supervision.bus_key import new_key
 
     log = prepare(config.name) / "bus.log"
     bus = LaunchedBus(
@@ -221,7 +221,7 @@ def bus_up(args: argparse.Namespace) -> int:
 
 def bus_key_of(config: BusConfig) -> bytes | None:
     """The key members of ``config``'s bus use here."""
-    from fw1394.transport.seal import key_for
+    from fw1394.transport.supervision.bus_key import key_for
 
     return key_for(config)
 
@@ -237,8 +237,13 @@ def labelled_rows(config: BusConfig, view: Any) -> list[dict[str, Any]]:
 
 
 def bus_status(args: argparse.Namespace) -> int:
-    from fw1394.transport.observe import watch
-    from fw1394.transport.runtime import bus_dir, read_members, read_nodes, supervisor_alive
+    from fw1394.transport.supervision.observe import watch
+    from fw1394.transport.supervision.runtime import (
+        bus_dir,
+        read_members,
+        read_nodes,
+        supervisor_alive,
+    )
 
     config = bus_config(args)
     keyed = bus_key_of(config) is not None
@@ -300,7 +305,7 @@ def _status_without_key(name: str, generation: int, as_json: bool) -> int:
 
 
 def bus_reset(args: argparse.Namespace) -> int:
-    from fw1394.transport.observe import request_reset, watch
+    from fw1394.transport.supervision.observe import request_reset, watch
 
     config = bus_config(args)
     bus_key_of(config)
@@ -321,8 +326,8 @@ def bus_reset(args: argparse.Namespace) -> int:
 
 
 def bus_down(args: argparse.Namespace) -> int:
-    from fw1394.transport.observe import watch
-    from fw1394.transport.runtime import (
+    from fw1394.transport.supervision.observe import watch
+    from fw1394.transport.supervision.runtime import (
         bus_dir,
         read_members,
         read_nodes,

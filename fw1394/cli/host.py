@@ -8,8 +8,9 @@ plugging a second PC into the cable would.
 A node is a physical ID (NODE), valid in the bus generation the command
 looked it up in: the transaction is pinned to that generation and fails
 with ``bus_reset`` rather than reach another node if the bus resets first.
-``read`` and ``write`` also take ``--board-id ID`` instead of NODE: the
-board is looked up in the current generation (and again after a reset).
+``read`` and ``write`` also take ``--board-id ID`` or ``--guid GUID`` instead
+of NODE: the board is looked up in the current generation (and again after a
+reset); a GUID is read from each node's configuration ROM.
 """
 
 from __future__ import annotations
@@ -97,15 +98,23 @@ def _parser(
             metavar="NODE",
             help="physical ID (0-62); left out with --board-id",
         )
-        parser.add_argument(
+        by = parser.add_mutually_exclusive_group()
+        by.add_argument(
             "--board-id",
             type=integer,
             metavar="ID",
             help="the node whose board ID (rotary switch, 0-254) is ID, instead of NODE",
         )
+        by.add_argument(
+            "--guid",
+            type=integer,
+            metavar="GUID",
+            help="the node whose configuration ROM holds GUID (EUI-64, e.g. 0x02f139...), "
+            "instead of NODE (fw1394 lsnodes lists them)",
+        )
     else:
         parser.add_argument("node", type=integer, metavar="NODE", help="physical ID (0-62)")
-        parser.set_defaults(board_id=None)
+        parser.set_defaults(board_id=None, guid=None)
     parser.add_argument("offset", type=integer, metavar="OFFSET", help="48-bit address offset")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument(
@@ -120,19 +129,29 @@ def _parser(
     return parser
 
 
+def _key(args: argparse.Namespace) -> int | None:
+    """The GUID or board ID the node is addressed by; None: by physical ID."""
+    guid: int | None = getattr(args, "guid", None)
+    return guid if guid is not None else getattr(args, "board_id", None)
+
+
 def _check(args: argparse.Namespace) -> None:
     board_id = getattr(args, "board_id", None)
-    if board_id is not None:
-        if not 0 <= board_id <= 254:
-            raise CliError(f"--board-id {board_id} is outside 0..254")
+    guid = getattr(args, "guid", None)
+    if guid is not None and not 0 <= guid < 1 << 64:
+        raise CliError(f"--guid {guid:#x} does not fit 64 bits")
+    if board_id is not None and not 0 <= board_id <= 254:
+        raise CliError(f"--board-id {board_id} is outside 0..254")
+    if _key(args) is not None:
+        option = "--guid" if guid is not None else "--board-id"
         if args.node is not None:
             # argparse gave the first word to NODE: with --board-id there is none.
             if not hasattr(args, "values"):
-                raise CliError("with --board-id give OFFSET only, no NODE")
+                raise CliError(f"with {option} give OFFSET only, no NODE")
             args.offset, args.values = args.node, [args.offset, *args.values]
             args.node = None
     elif args.node is None:
-        raise CliError("give NODE (a physical ID) or --board-id ID")
+        raise CliError("give NODE (a physical ID), --board-id ID or --guid GUID")
     if not 0 <= args.offset < 1 << 48:
         raise CliError(f"offset {args.offset:#x} does not fit 48 bits")
     if args.node is not None and not 0 <= args.node <= BROADCAST_PHY:
@@ -154,26 +173,27 @@ def _transact(args: argparse.Namespace, what: str, action: Any) -> Any:
     ID, a reset before it went out means looking the board up again; by physical
     ID it is the caller's to decide, so the command fails with ``bus_reset``.
     """
-    from fw1394.host.addressing import BoardPort
+    from fw1394.host.addressing import BoardPort, GuidPort
     from fw1394.transport.bus_host import StaleGenerationError, TransactionError
 
     config = bus_config(args)
     with open_port(args) as port:
-        boards = BoardPort(port)
+        boards = GuidPort(port) if args.guid is not None else BoardPort(port)
         nodes: dict[int, Any] = {}
         try:
             for attempt in range(_ATTEMPTS):
-                if args.board_id is None:
+                key = _key(args)
+                if key is None:
                     nodes = dict(port.nodes())
                     _known(args, config, nodes)
                     args.generation = port.generation
                 else:
-                    args.node, args.generation = boards.locate(args.board_id)
+                    args.node, args.generation = boards.locate(key)
                     nodes = dict(enumerate(boards.members))
                 try:
                     return action(port, args.node, args.generation)
                 except StaleGenerationError:
-                    if args.board_id is None or attempt == _ATTEMPTS - 1:
+                    if _key(args) is None or attempt == _ATTEMPTS - 1:
                         raise
         except ValueError as error:  # the bus host's plain ValueError: a block too long
             raise CliError(str(error)) from None
@@ -207,6 +227,8 @@ def _known(args: argparse.Namespace, config: Any, nodes: dict[int, Any]) -> None
 
 
 def _target(args: argparse.Namespace) -> str:
+    if args.guid is not None:
+        return f"GUID {args.guid:#018x} (node {args.node})"
     if args.board_id is None:
         return f"node {args.node}"
     return f"board ID {args.board_id} (node {args.node})"
@@ -258,6 +280,8 @@ def _where(args: argparse.Namespace) -> dict[str, Any]:
     where: dict[str, Any] = {"node": args.node}
     if args.board_id is not None:
         where["board_id"] = args.board_id
+    if args.guid is not None:
+        where["guid"] = f"{args.guid:#018x}"
     where["generation"] = getattr(args, "generation", None)
     return where
 

@@ -18,10 +18,11 @@ import subprocess
 import sys
 from dataclasses import dataclass
 
-from fw1394.experiments.phase_progress import Progress
 from fw1394.experiments.summary import Summary, summarize
 from fw1394.experiments.timing import TargetError, pin, time_calls
-from fw1394.transport.idle import Waiter, default_idle
+from fw1394.progress import Progress
+from fw1394.transport.media.idle import Waiter, default_idle
+from fw1394.transport.supervision.stop import stop
 
 REQUEST_BYTES = 40
 BLOCK_BYTES = 2048
@@ -32,8 +33,8 @@ RECEIVE_TIMEOUT_S = 1.0
 # bench (PR_SET_PDEATHSIG) however the bench ends.
 ECHO = """
 import socket, sys
-from fw1394.transport.idle import Waiter, default_idle
-from fw1394.transport.procs import die_with_parent
+from fw1394.transport.media.idle import Waiter, default_idle
+from fw1394.transport.supervision.procs import die_with_parent
 die_with_parent(int(sys.argv[1]))
 peer = ("127.0.0.1", int(sys.argv[2]))
 s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -174,11 +175,7 @@ def measure(
 
 
 def stop_process(process: subprocess.Popen[str]) -> None:
-    """Reap ``process`` once it ends, killing it after 2 s; close its output pipe."""
-    try:
-        process.wait(2.0)
-    except subprocess.TimeoutExpired:
-        process.kill()
-        process.wait()
+    """Stop ``process`` and reap it; close its output pipe."""
+    stop(process)
     if process.stdout is not None:
         process.stdout.close()

@@ -13,10 +13,17 @@ reset while a transaction is on the bus still fails it with ``bus_reset``
 (for a write, the outcome may be unknown), and a board that is not on the
 bus raises :class:`BoardNotOnBusError`.
 
+:class:`GuidPort` does the same by GUID (EUI-64): in each generation it reads
+the GUID from the bus information block of every member's configuration ROM
+(CSR 0xFFFF_F000_0400, one 20-byte block read pinned to that generation, kept
+for as long as the member stays on the bus) and finds the one that matches,
+the way Linux's firewire-core keys devices by GUID across resets. Members
+without a ROM (or whose ROM read fails) have no GUID.
+
 ``Board(BoardPort(port), board_id)`` is then a :class:`~fw1394.host.robot.RobotIO`
 addressed by board ID. ``port`` is an
 :class:`~fw1394.host.adapter_port.AdapterPort` or a
-:class:`~fw1394.transport.bus_port.BusPort`.
+:class:`~fw1394.host.bus_port.BusPort`.
 """
 
 from __future__ import annotations
@@ -28,8 +35,8 @@ from dataclasses import dataclass
 from typing import Protocol, TypeVar
 
 from fw1394.errors import BusUnreachable
-from fw1394.transport.bus_host import StaleGenerationError
-from fw1394.transport.wire import NO_BOARD, MemberInfo
+from fw1394.transport.bus_host import StaleGenerationError, TransactionError
+from fw1394.transport.sansio.wire import NO_BOARD, MemberInfo
 
 log = logging.getLogger("fw1394.host")
 T = TypeVar("T")
@@ -37,8 +44,14 @@ T = TypeVar("T")
 _ATTEMPTS = 4
 
 
+#: CSR offset of the configuration ROM: header, "1394", bus options, GUID high, GUID low.
+CONFIG_ROM = 0xFFFF_F000_0400
+_BUS_INFO_BYTES = 20
+_BUS_NAME_1394 = 0x31333934
+
+
 class BoardNotOnBusError(BusUnreachable, LookupError):
-    """No member of the bus has that board ID now (or more than one has)."""
+    """No member of the bus has that board ID (or GUID) now, or more than one has."""
 
 
 class PinnablePort(Protocol):
@@ -77,7 +90,8 @@ class PinnablePort(Protocol):
 
 @dataclass(frozen=True, slots=True)
 class Resolution:
-    """Board ``board_id`` is physical ID ``phy`` in ``generation`` (None: not on the bus)."""
+    """Board ``board_id`` (a GUID for :class:`GuidPort`) is physical ID ``phy`` in
+    ``generation`` (None: not on the bus)."""
 
     board_id: int
     generation: int
@@ -94,8 +108,21 @@ def board_phys(members: tuple[MemberInfo, ...]) -> dict[int, list[int]]:
     return found
 
 
+def guid_of(bus_info: bytes) -> int | None:
+    """The GUID in the first 20 bytes of a configuration ROM; None for a minimal ROM."""
+    if len(bus_info) < _BUS_INFO_BYTES:
+        return None
+    header, name = int.from_bytes(bus_info[:4], "big"), int.from_bytes(bus_info[4:8], "big")
+    if header >> 24 < 4 or name != _BUS_NAME_1394:
+        return None  # info_length < 4: no bus information block with a GUID
+    return int.from_bytes(bus_info[12:20], "big")
+
+
 class BoardPort:
     """A :class:`~fw1394.host.port.Port` over ``port`` whose node numbers are board IDs."""
+
+    #: How a key is named in messages and logs.
+    KEY = "board ID"
 
     def __init__(self, port: PinnablePort) -> None:
         self.port = port
@@ -121,23 +148,31 @@ class BoardPort:
         assert self._generation is not None
         if len(phys) != 1:
             self._note(board_id, None)
-            boards = ", ".join(str(b) for b in sorted(self._boards)) or "none"
+            boards = ", ".join(self._name(b) for b in sorted(self._boards)) or "none"
+            key = f"{self.KEY} {self._name(board_id)}"
             if phys:
                 raise BoardNotOnBusError(
-                    f"board ID {board_id} is announced by {len(phys)} members (physical IDs "
+                    f"{key} is announced by {len(phys)} members (physical IDs "
                     f"{', '.join(map(str, phys))}) in generation {self._generation}"
                 )
             raise BoardNotOnBusError(
-                f"no board with board ID {board_id} on the bus in generation "
-                f"{self._generation} (board IDs: {boards})"
+                f"no board with {key} on the bus in generation "
+                f"{self._generation} ({self.KEY}s: {boards})"
             )
         self._note(board_id, phys[0])
         return phys[0], self._generation
 
     def _refresh(self) -> None:
         generation, members = self.port.table()
-        self._generation, self._boards = generation, board_phys(members)
+        self._generation, self._boards = generation, self._index(generation, members)
         self.members = members
+
+    def _index(self, generation: int, members: tuple[MemberInfo, ...]) -> dict[int, list[int]]:
+        """Key -> the physical IDs that have it, in ``generation``."""
+        return board_phys(members)
+
+    def _name(self, key: int) -> str:
+        return str(key)
 
     def _note(self, board_id: int, phy: int | None) -> None:
         generation = self._generation
@@ -150,8 +185,9 @@ class BoardPort:
         self.resolutions.append(Resolution(board_id, generation, phy, previous))
         if known is not None:  # the first look-up is no news
             log.info(
-                "board %d: %s in generation %d (was %s in generation %d)",
-                board_id,
+                "%s %s: %s in generation %d (was %s in generation %d)",
+                self.KEY,
+                self._name(board_id),
                 _where(phy),
                 generation,
                 _where(previous),
@@ -195,6 +231,56 @@ class BoardPort:
         return self._pinned(
             node, lambda p, g: port.lock(p, offset, extended_tcode, argument, data, generation=g)
         )
+
+
+class GuidPort(BoardPort):
+    """A :class:`~fw1394.host.port.Port` over ``port`` whose node numbers are GUIDs."""
+
+    KEY = "GUID"
+
+    def __init__(self, port: PinnablePort) -> None:
+        super().__init__(port)
+        #: Member ID -> its GUID; a member keeps its ROM while on the bus. A member
+        #: without one is asked again in the next generation (it may have been busy).
+        self._guids: dict[int, int] = {}
+
+    def _refresh(self) -> None:
+        for attempt in range(_ATTEMPTS):
+            try:
+                super()._refresh()
+                return
+            except StaleGenerationError:
+                # A reset while the ROMs were read: read the new generation's table.
+                if attempt == _ATTEMPTS - 1:
+                    raise
+
+    def _index(self, generation: int, members: tuple[MemberInfo, ...]) -> dict[int, list[int]]:
+        present = {member.member_id for member in members}
+        self._guids = {m: g for m, g in self._guids.items() if m in present}
+        found: dict[int, list[int]] = {}
+        for phy, member in enumerate(members):
+            if member.host:
+                continue
+            guid = self._guids.get(member.member_id)
+            if guid is None:
+                guid = self._read_guid(phy, generation)
+                if guid is None:
+                    continue
+                self._guids[member.member_id] = guid
+            found.setdefault(guid, []).append(phy)
+        return found
+
+    def _read_guid(self, phy: int, generation: int) -> int | None:
+        try:
+            rom = self.port.read_block(phy, CONFIG_ROM, _BUS_INFO_BYTES, generation=generation)
+        except StaleGenerationError:
+            raise
+        except TransactionError:
+            return None  # no ROM there (or it did not answer): no GUID
+        return guid_of(rom)
+
+    def _name(self, key: int) -> str:
+        return f"{key:#018x}"
 
 
 def _where(phy: int | None) -> str:

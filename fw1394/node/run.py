@@ -5,13 +5,14 @@ from __future__ import annotations
 import sys
 from typing import Any
 
+from fw1394.boards.config_rom import with_config_rom
 from fw1394.boards.registry import BOARDS, board_defects, make_board
 from fw1394.engine.policy import POLICIES
 from fw1394.errors import Error
 from fw1394.node.description import RTL_PREFIX, NodeDescription
 from fw1394.node.process import BusRefusedError, NodeOptions, run_node
-from fw1394.transport.membership import BusReset
-from fw1394.transport.procs import die_with_parent
+from fw1394.transport.sansio.membership import BusReset
+from fw1394.transport.supervision.procs import die_with_parent
 
 #: A memory node's size unless the description names another.
 DEFAULT_MEMORY_SIZE = NodeDescription().memory_size
@@ -48,7 +49,10 @@ def run(node: NodeDescription) -> None:
                 quiet=node.quiet,
             )
             return
-        space = _board(node)
+        # Every node has a configuration ROM with a GUID of its own (fw1394.boards.config_rom).
+        space = with_config_rom(
+            _board(node), bus=name, board_id=node.board_id, rank=node.rank, model=node.board
+        )
         options = NodeOptions(
             config=node.bus,
             board_id=node.board_id,

@@ -17,6 +17,7 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from fw1394.packets.codegen import compile_function
 from fw1394.packets.enums import TCode
 from fw1394.packets.fields import BitField, Quadlets
 from fw1394.packets.layouts import LAYOUTS
@@ -38,10 +39,13 @@ class FieldReader:
 
     def __post_init__(self) -> None:
         namespace: dict[str, Any] = {"from_bytes": int.from_bytes}
-        exec(self._bytes_source(), namespace)
-        exec(self._quadlets_source(), namespace)
-        object.__setattr__(self, "of_bytes", namespace["of_bytes"])
-        object.__setattr__(self, "of_quadlets", namespace["of_quadlets"])
+        origin = f"fw1394.packets.accessors {self.name}"
+        of_bytes = compile_function(self._bytes_source(), namespace, "of_bytes", origin=origin)
+        of_quadlets = compile_function(
+            self._quadlets_source(), namespace, "of_quadlets", origin=origin
+        )
+        object.__setattr__(self, "of_bytes", of_bytes)
+        object.__setattr__(self, "of_quadlets", of_quadlets)
 
     @property
     def quadlet(self) -> int:

@@ -22,6 +22,7 @@ from typing import Any, TypeVar
 
 from fw1394.crc import CHECK_VALUE, crc32
 from fw1394.packets.asynchronous import ASYNC_CLASSES, AsyncPacket, decode_async, encode_async
+from fw1394.packets.codegen import compile_function
 from fw1394.packets.layouts import LAYOUTS, TCODE_BYTE, TCODE_SHIFT
 
 P = TypeVar("P", bound=AsyncPacket)
@@ -112,10 +113,11 @@ def _slot_setters(cls: type[AsyncPacket], namespace: dict[str, Any]) -> None:
         namespace[f"set_{f.name}"] = getattr(cls, f.name).__set__
 
 
-def _compile(source: list[str], namespace: dict[str, Any], name: str) -> Callable[..., Any]:
-    exec("\n".join(source) + "\n", namespace)
-    function: Callable[..., Any] = namespace[name]
-    return function
+def _compile(
+    source: list[str], namespace: dict[str, Any], name: str, cls: type[AsyncPacket]
+) -> Callable[..., Any]:
+    origin = f"fw1394.packets.fast {name} {cls.__name__}"
+    return compile_function(source, namespace, name, origin=origin)
 
 
 def _encoder(cls: type[AsyncPacket]) -> Callable[[AsyncPacket], bytes | None]:
@@ -149,7 +151,7 @@ def _encoder(cls: type[AsyncPacket]) -> Callable[[AsyncPacket], bytes | None]:
             "        data = data + bytes(4 - (data_length & 3))",
             "    return b''.join((head, quadlet(crc(head)), data, quadlet(block_crc(data))))",
         ]
-    return _compile(lines, namespace, "encode")
+    return _compile(lines, namespace, "encode", cls)
 
 
 def _sound_decoder(cls: type[AsyncPacket]) -> Callable[[bytes], AsyncPacket | None]:
@@ -198,7 +200,7 @@ def _sound_decoder(cls: type[AsyncPacket]) -> Callable[[bytes], AsyncPacket | No
     if layout.has_data:
         lines += ["    set_data(packet, data)", "    set_data_crc(packet, data_crc)"]
     lines += ["    set_trailing(packet, b'')", "    return packet"]
-    return _compile(lines, namespace, "decode")
+    return _compile(lines, namespace, "decode", cls)
 
 
 _ENCODERS: dict[type[AsyncPacket], Callable[[AsyncPacket], bytes | None]] = {
@@ -270,7 +272,7 @@ def builder(cls: type[P], *names: str) -> Callable[..., P]:
             value = f"default_{name}"
         lines.append(f"    set_{name}(packet, {value})")
     lines.append("    return packet")
-    build: Callable[..., P] = _compile(lines, namespace, "build")
+    build: Callable[..., P] = _compile(lines, namespace, "build", cls)
     return build
 
 
@@ -339,5 +341,5 @@ def wire_builder(cls: type[AsyncPacket], *names: str) -> Callable[..., bytes]:
         "crc": crc32,
         "block_crc": block_crc,
     }
-    wire: Callable[..., bytes] = _compile(lines, namespace, "wire")
+    wire: Callable[..., bytes] = _compile(lines, namespace, "wire", cls)
     return wire

@@ -25,6 +25,7 @@ import construct
 from construct import Container, StreamError, stream_read, stream_write
 
 from fw1394.errors import PacketError
+from fw1394.packets.codegen import compile_function
 
 
 @dataclass(frozen=True)
@@ -68,12 +69,16 @@ class Quadlets(construct.Construct):  # type: ignore[misc]
             "unpack": self.format.unpack,
             "unpack_from": self.format.unpack_from,
         }
-        exec(self._parse_source("_fields", "dict"), namespace)
-        exec(self._tuple_source("_values"), namespace)
-        exec(self._build_source("_quadlets"), namespace)
-        self.unpack_fields: Callable[[bytes], dict[str, int]] = namespace["_fields"]
-        self.unpack_values: Callable[..., tuple[int, ...]] = namespace["_values"]
-        self.pack_fields: Callable[[Any], tuple[int, ...]] = namespace["_quadlets"]
+        origin = f"fw1394.packets.fields Quadlets({', '.join(self.names)})"
+        self.unpack_fields: Callable[[bytes], dict[str, int]] = compile_function(
+            self._parse_source("_fields", "dict"), namespace, "_fields", origin=origin
+        )
+        self.unpack_values: Callable[..., tuple[int, ...]] = compile_function(
+            self._tuple_source("_values"), namespace, "_values", origin=origin
+        )
+        self.pack_fields: Callable[[Any], tuple[int, ...]] = compile_function(
+            self._build_source("_quadlets"), namespace, "_quadlets", origin=origin
+        )
 
     # -- generated code -------------------------------------------------------------
     def field_expressions(self) -> dict[str, str]:
@@ -136,8 +141,10 @@ class Quadlets(construct.Construct):  # type: ignore[misc]
         lines += self.attribute_source(constants, "obj", "header")
         lines.append("    return header")
         namespace: dict[str, Any] = {"pack": self.format.pack}
-        exec("\n".join(lines) + "\n", namespace)
-        packer: Callable[[Any], bytes | None] = namespace["_pack_attributes"]
+        origin = f"fw1394.packets.fields attribute packer of {', '.join(self.names)}"
+        packer: Callable[[Any], bytes | None] = compile_function(
+            lines, namespace, "_pack_attributes", origin=origin
+        )
         return packer
 
     def attribute_source(self, constants: dict[str, int], source: str, target: str) -> list[str]:

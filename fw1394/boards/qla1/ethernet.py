@@ -19,6 +19,14 @@ writes without no-forward are both. Without no-forward, a bus reset or a
 generation mismatch (unless broadcast) drops the packet: reads get the
 extra-only notice, writes nothing. No 1394 CRC is checked on this path, and
 responses carry zero CRCs.
+
+A quadlet read whose 1394 part is exactly its three header quadlets (12 bytes,
+no CRC quadlet) is the stale-data read (jhu-eth1394.md §3.2, an RTL reading):
+the last word the UDP length announces is the word at which the packet becomes
+"fresh", and that check wins, so no register read starts while a reply is still
+owed. The reply is a normal quadlet response (this request's label and source)
+carrying whatever the previous read left behind: here the data of the board's
+last quadlet read over Ethernet, 0 after power-up. The register is not read.
 """
 
 from __future__ import annotations
@@ -35,7 +43,7 @@ from fw1394.boards.qla1.firewire import (
     hub_broadcast,
     is_hub_query,
 )
-from fw1394.boards.qla1.paths import ETHERNET_PATH, zero_crc_bytes
+from fw1394.boards.qla1.paths import ETHERNET_PATH, QREAD_SIZE, zero_crc_bytes
 from fw1394.boards.qla1.regs import (
     HUB_MEMORY_BASE,
     BoardRegister,
@@ -49,6 +57,7 @@ from fw1394.packets import (
     BlockWriteRequest,
     PacketError,
     QuadletReadRequest,
+    QuadletReadResponse,
     QuadletWriteRequest,
     Request,
     Response,
@@ -75,6 +84,8 @@ CLEAR_ERRORS = 1 << 29
 HUB_READ_WAIT = 0.015
 #: Early hub broadcasts kept for a query not seen yet.
 STASH_LIMIT = 64
+#: A quadlet read of its header quadlets only: answered with stale data (§3.2).
+STALE_QREAD_SIZE = 12
 
 _READS = (QuadletReadRequest, BlockReadRequest)
 _RESPONSE_TCODES = (TCode.read_quadlet_response, TCode.read_block_response)
@@ -132,6 +143,11 @@ def decode_request(raw: bytes) -> Request | None:
     return packet if isinstance(packet, Request) else None
 
 
+def is_stale_read(raw: bytes) -> bool:
+    """``raw`` (a 1394 part) is a quadlet read cut after its header: the stale-data read."""
+    return len(raw) == STALE_QREAD_SIZE and tcode_of(raw) == TCode.read_quadlet_request
+
+
 @dataclass
 class _PendingRead:
     request: BlockReadRequest
@@ -171,6 +187,8 @@ class EthernetPort:
     summary_error: bool = False
     last_host: HostAddress | None = None
     host_id: int | None = None
+    #: What the last quadlet read over Ethernet returned: the stale read's answer.
+    last_read: int = 0
     _pending: list[_PendingRead] = field(default_factory=list)
     _broadcast_read: _BroadcastReadTarget | None = None
     _stash: dict[int, list[BlockWriteRequest]] = field(default_factory=dict)
@@ -181,7 +199,9 @@ class EthernetPort:
             framed = split_request(payload)
         except Eth1394Error:
             return []
-        packet = decode_request(framed.packet)
+        stale = is_stale_read(framed.packet)
+        raw = framed.packet.ljust(QREAD_SIZE, b"\0") if stale else framed.packet
+        packet = decode_request(raw)
         if packet is None:
             return []  # never "fresh": ignored
         if packet.destination_bus != LOCAL_BUS:
@@ -212,8 +232,29 @@ class EthernetPort:
             actions.append(Forward(packet, framed.packet))
         if local:
             reply_node = self.board.board_id if control.no_forward else firewire.node_id
+            if stale:
+                assert isinstance(packet, QuadletReadRequest)
+                return [*actions, self._stale(packet, reply_node, control.no_forward, sender, now)]
             actions += self._serve(packet, reply_node, control.no_forward, sender, now)
         return actions
+
+    def _stale(
+        self,
+        packet: QuadletReadRequest,
+        reply_node: int,
+        no_forward: bool,
+        sender: HostAddress,
+        now: float,
+    ) -> Reply:
+        """The reply to a 12-byte quadlet read: no register read, the last read's data."""
+        stale = QuadletReadResponse(
+            destination_id=packet.source_id,
+            tlabel=packet.tlabel,
+            source_id=packet.destination_id,
+            quadlet_data=self.last_read,
+        )
+        response = ETHERNET_PATH.answer(stale, packet, reply_node)
+        return Reply(sender, zero_crc_bytes(response), self._extra(no_forward), now)
 
     def _serve(
         self,
@@ -247,6 +288,8 @@ class EthernetPort:
         if reply.response is None or not isinstance(reply.response, Response):
             return []
         response = ETHERNET_PATH.answer(reply.response, target, reply_node)
+        if isinstance(response, QuadletReadResponse):
+            self.last_read = response.quadlet_data
         return [Reply(sender, zero_crc_bytes(response), self._extra(no_forward), now)]
 
     def _after_write(

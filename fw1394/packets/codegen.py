@@ -1,0 +1,46 @@
+"""The one place fw1394 turns generated source into functions.
+
+The hot paths (packet codecs, field readers, the engine's common turns) are
+straight-line functions written from the packet layouts at import time. Each
+is compiled here under a file name of its own and its source is registered in
+:mod:`linecache`, so a traceback, ``pdb`` and ``inspect.getsource`` show the
+generated line that ran instead of ``File "<string>", line 1``. Nothing else
+in the package calls ``exec`` or ``eval`` (a test holds that).
+"""
+
+from __future__ import annotations
+
+import itertools
+import linecache
+from collections.abc import Callable, Iterable
+from typing import Any
+
+#: Numbers the generated files: two functions made from the same text stay apart.
+_serial = itertools.count(1)
+
+
+def generated_filename(origin: str) -> str:
+    """A file name no other generated function has, naming where the source came from."""
+    return f"<fw1394-generated {origin} #{next(_serial)}>"
+
+
+def compile_function(
+    source: str | Iterable[str], namespace: dict[str, Any], name: str, *, origin: str
+) -> Callable[..., Any]:
+    """Function ``name`` defined by ``source`` (text, or lines without their newlines).
+
+    ``namespace`` holds the globals the source uses; ``origin`` says what made it
+    (``"fw1394.packets.fast encode QuadletReadRequest"``) and goes into the file name
+    that tracebacks print.
+    """
+    text = source if isinstance(source, str) else "\n".join(source) + "\n"
+    filename = generated_filename(origin)
+    code = compile(text, filename, "exec")
+    # mtime None: linecache.checkcache keeps the entry (there is no file to recheck).
+    linecache.cache[filename] = (len(text), None, text.splitlines(keepends=True), filename)
+    exec(code, namespace)
+    function: Callable[..., Any] = namespace[name]
+    return function
+
+
+__all__ = ["compile_function", "generated_filename"]
