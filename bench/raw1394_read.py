@@ -3,6 +3,7 @@
     python bench/raw1394_read.py               # 8 rounds of 2000 reads each way
     python bench/raw1394_read.py --rounds 4 --reads 500 --json
     python bench/raw1394_read.py --rt          # the JHU-style loop, 4 boards
+    nice -n 10 python bench/raw1394_read.py --rt --rounds 6 --before main
 
 
 Starts a bus of one memory board with its host adapter (in a private runtime
@@ -15,7 +16,10 @@ process start-up is not counted. The ratio library / AdapterPort per round and
 their median are printed; the issue's goal is <= 1.3x. ``--rt`` instead runs the
 JHU host library's real-time loop shape through the library (per cycle, one
 64-byte block read and one 16-byte block write per board, four boards) and
-prints cycles per second (goal >= 1 kHz). Nothing is asserted.
+prints cycles per second (goal >= 1 kHz). Nothing is asserted. With
+``--before REF`` each round runs the loop once on a git worktree of REF (the
+baseline) and once on this checkout, in a fresh bus each, alternating which goes
+first (ABAB), and prints the per-round ratio this / REF.
 The machine this runs on may be shared: compare ratios of one run, not
 absolute times across runs.
 """
@@ -23,6 +27,7 @@ absolute times across runs.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import shutil
@@ -31,13 +36,14 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 from fw1394.host.adapter_port import AdapterPort
 from fw1394.raw1394.launch import environment
-from fw1394.transport.adapter import wait_adapter
-from fw1394.transport.config import BusConfig
-from fw1394.transport.launch import LaunchedBus
+from fw1394.transport.host_adapter.server import adapter_pid, wait_adapter
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.supervision.launch import LaunchedBus
 
 PROGRAM = r"""
 #include <stdio.h>
@@ -108,13 +114,94 @@ def library_round(program: Path, env: dict[str, str], reads: int) -> float:
     return float(out.stdout)
 
 
+HERE = Path(__file__).resolve().parents[1]
+
+
+@contextlib.contextmanager
+def checkout(ref: str) -> Iterator[Path]:
+    """A temporary git worktree of ``ref`` (detached), removed afterwards."""
+    place = Path(tempfile.mkdtemp(prefix="raw1394-before-")) / "tree"
+    git = ["git", "-C", str(HERE)]
+    made = subprocess.run(
+        [*git, "worktree", "add", "--detach", str(place), ref], capture_output=True, text=True
+    )
+    if made.returncode:
+        shutil.rmtree(place.parent, ignore_errors=True)
+        sys.exit(f"raw1394_read.py: --before {ref}: {made.stderr.strip()}")
+    try:
+        yield place
+    finally:
+        subprocess.run([*git, "worktree", "remove", "--force", str(place)], check=True)
+        shutil.rmtree(place.parent, ignore_errors=True)
+
+
+def cpu_seconds(pid: int | None) -> float:
+    """User and system CPU time of process ``pid`` so far (0 if it is gone)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except (OSError, IndexError):
+        return 0.0
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def rt_round(root: Path, reads: int) -> tuple[float, float, float]:
+    """One real-time round on a fresh bus with fw1394 from ``root``: cycles/s and
+    the adapter's and the nodes' CPU microseconds per transaction."""
+    env = {**os.environ, "PYTHONPATH": str(root)}
+    script = [sys.executable, __file__, "--rt", "--rounds", "1", "--reads", str(reads), "--json"]
+    done = subprocess.run(script, env=env, capture_output=True, text=True, timeout=600)
+    if done.returncode:
+        last = (done.stderr.strip().splitlines() or ["no output"])[-1]
+        sys.exit(f"raw1394_read.py: a round with fw1394 from {root} failed: {last}")
+    report = json.loads(done.stdout)
+    return (
+        report["cycles_per_second"][0],
+        report["adapter_cpu_us_per_transaction"][0],
+        report["node_cpu_us_per_transaction"][0],
+    )
+
+
+def compare(ref: str, rounds: int, reads: int) -> int:
+    with checkout(ref) as before:
+        sides = {"before": before, "after": HERE}
+        runs: dict[str, list[tuple[float, float, float]]] = {"before": [], "after": []}
+        print(f"real-time loop, 4 boards: {ref} (before) vs this checkout (after)")
+        print("cycles/s, then CPU us per transaction of the adapter and of all nodes")
+        for number in range(rounds):
+            order = ["before", "after"] if number % 2 == 0 else ["after", "before"]
+            for side in order:
+                runs[side].append(rt_round(sides[side], reads))
+            (b_hz, b_adapter, b_nodes), (a_hz, a_adapter, a_nodes) = (
+                runs["before"][-1],
+                runs["after"][-1],
+            )
+            print(
+                f"round {number}: before {b_hz:.0f} Hz {b_adapter:.0f}/{b_nodes:.0f} us, "
+                f"after {a_hz:.0f} Hz {a_adapter:.0f}/{a_nodes:.0f} us, "
+                f"rate after/before {a_hz / b_hz:.2f} (load {os.getloadavg()[0]:.1f})"
+            )
+    for index, what in enumerate(("cycles/s", "adapter CPU us/transaction", "node CPU us")):
+        before_values = [run[index] for run in runs["before"]]
+        after_values = [run[index] for run in runs["after"]]
+        ratios = [a / b for a, b in zip(after_values, before_values, strict=True) if b]
+        print(
+            f"{what}: median before {statistics.median(before_values):.0f}, after "
+            f"{statistics.median(after_values):.0f}; after/before median "
+            f"{statistics.median(ratios):.2f} (range {min(ratios):.2f}-{max(ratios):.2f})"
+        )
+    return 0
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=8)
     parser.add_argument("--reads", type=int, default=2000)
     parser.add_argument("--json", action="store_true")
     parser.add_argument("--rt", action="store_true", help="the real-time loop, 4 boards")
+    parser.add_argument("--before", metavar="REF", help="--rt against git REF, interleaved")
     args = parser.parse_args()
+    if args.before:
+        return compare(args.before, args.rounds, args.reads)
     if shutil.which("gcc") is None:
         print("raw1394_read bench: gcc is needed", file=sys.stderr)
         return 2
@@ -131,6 +218,8 @@ def main() -> int:
         config, boards, board="memory", root=work / "fw1394", node_arguments=("--adapter",)
     )
     rows = []
+    #: Per real-time round: CPU microseconds per transaction of the adapter, of all nodes.
+    cpu_us: list[tuple[float, float]] = []
     try:
         with bus:
             bus.wait_members()
@@ -138,14 +227,25 @@ def main() -> int:
                 print("raw1394_read bench: the adapter did not come up", file=sys.stderr)
                 return 1
             env = environment(config.name, work / "fw1394")
+            adapter = adapter_pid(bus.directory)
+            nodes = [record.pid for record in bus.records()]
             if args.rt:
                 for _ in range(args.rounds):
+                    cycles = args.reads // 4
+                    spent = cpu_seconds(adapter), sum(map(cpu_seconds, nodes))
                     out = subprocess.run(
-                        [str(program), str(args.reads // 4), str(boards)],
+                        [str(program), str(cycles), str(boards)],
                         env=env,
                         capture_output=True,
                         text=True,
                         check=True,
+                    )
+                    transactions = 2 * boards * cycles
+                    cpu_us.append(
+                        (
+                            1e6 * (cpu_seconds(adapter) - spent[0]) / transactions,
+                            1e6 * (sum(map(cpu_seconds, nodes)) - spent[1]) / transactions,
+                        )
                     )
                     rows.append((0.0, 0.0, float(out.stdout)))
             with AdapterPort(config.name, root=work / "fw1394") as port:
@@ -159,12 +259,18 @@ def main() -> int:
     if args.rt:
         rates = [r for _, _, r in rows]
         if args.json:
-            print(json.dumps({"boards": boards, "cycles_per_second": rates, "goal": 1000}))
+            report = {"boards": boards, "cycles_per_second": rates, "goal": 1000}
+            report["adapter_cpu_us_per_transaction"] = [a for a, _ in cpu_us]
+            report["node_cpu_us_per_transaction"] = [n for _, n in cpu_us]
+            print(json.dumps(report))
         else:
             print("real-time loop through libraw1394: per cycle one 64-byte block read and one")
             print(f"16-byte block write to each of {boards} boards (shared machine)")
             print("cycles/s per round: " + ", ".join(f"{r:.0f}" for r in rates))
             print(f"median: {statistics.median(rates):.0f} cycles/s (goal >= 1000)")
+            adapter_us = statistics.median(a for a, _ in cpu_us)
+            node_us = statistics.median(n for _, n in cpu_us)
+            print(f"CPU per transaction: adapter {adapter_us:.0f} us, nodes {node_us:.0f} us")
         return 0
     ratios = [r for _, _, r in rows]
     summary = {

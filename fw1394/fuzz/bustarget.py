@@ -15,11 +15,11 @@ from fw1394.fuzz.target import Observed, TargetCrash, TargetGone, Wire
 from fw1394.fuzz.tunnel import Replies
 from fw1394.fuzz.udptarget import TUNNEL_VISIBILITY
 from fw1394.packets.nodeid import node_id
-from fw1394.transport.config import BusConfig, BusNameError
 from fw1394.transport.link import ACK, ASYNC_PACKET, BusRefusedError, LinkLayer
+from fw1394.transport.sansio.config import BusConfig, BusNameError
+from fw1394.transport.sansio.wire import FrameHeader, MemberInfo
 from fw1394.transport.station import Station
 from fw1394.transport.supervision.procs import pid_namespace, process_alive
-from fw1394.transport.wire import FrameHeader, MemberInfo
 
 _POLL = 0.002
 _JOIN_TIMEOUT = 10.0

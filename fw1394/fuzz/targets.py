@@ -21,7 +21,7 @@ from fw1394.fuzz.reference import Reference
 from fw1394.fuzz.settings import RTL_DEFAULTS, Settings, SettingsError, default_policy
 from fw1394.fuzz.target import Target
 from fw1394.fuzz.trial import Trial
-from fw1394.transport.config import BusNameError, parse_bus_node
+from fw1394.transport.sansio.config import BusNameError, parse_bus_node
 
 SCHEMES = ("inproc", "bus", "udp", "rtl")
 

@@ -24,7 +24,7 @@ from fw1394.packets import (
     WriteResponse,
     encode,
 )
-from fw1394.transport.wire import AckPayload, ack_byte
+from fw1394.transport.sansio.wire import AckPayload, ack_byte
 
 NODE = 0xFFC0
 

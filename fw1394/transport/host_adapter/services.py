@@ -1,25 +1,25 @@
 """What the host adapter does as a node, beyond running its clients' transactions.
 
-The adapter (:mod:`fw1394.transport.adapter`) hands this module the requests
+The adapter (:mod:`fw1394.transport.host_adapter.server`) hands this module the requests
 and frames that concern its own node; :class:`NodeServices` serves them with
-a :class:`~fw1394.transport.adapter_node.LocalNode` and carries the answers:
+a :class:`~fw1394.transport.host_adapter.local_node.LocalNode` and carries the answers:
 to a client (a reply, or a *push*: a reply that repeats the number of a
 client's standing request), or onto the bus (an ack, a response packet).
 
 The operations (``Op``) it owns, and how their fields are used:
 
 * ``watch``: the client hears of every bus reset. The reply, now and after each
-  reset (same request number), carries :data:`~fw1394.transport.adapter_node.BUS_STATE`;
+  reset (same request number), carries :data:`~fw1394.transport.host_adapter.local_node.BUS_STATE`;
   the reply header's ``generation`` and ``phy`` are the new ones.
 * ``listen``: claim ``length`` bytes at ``offset`` of the adapter's node
   (``extended_tcode`` 1: listen to the FCP registers, shared with others). Each
-  request into the range is pushed as an :data:`~fw1394.transport.adapter_node.INCOMING`
+  request into the range is pushed as an :data:`~fw1394.transport.host_adapter.local_node.INCOMING`
   record; ``unlisten`` (``offset``) gives the range back.
 * ``respond``: answer the pushed request whose handle is ``offset`` with rcode
   ``extended_tcode`` and ``data``.
 * ``cycle_time``: the reply's ``data`` is the CYCLE_TIME register (4 bytes).
 * ``config_rom``: with no ``data``, the reply carries
-  :data:`~fw1394.transport.adapter_node.ROM_IMAGE`; with ``data``, that becomes the
+  :data:`~fw1394.transport.host_adapter.local_node.ROM_IMAGE`; with ``data``, that becomes the
   ROM if ``length`` is the version the client read (a changed ROM resets the bus).
 * ``reset``: ask for a bus reset.
 * ``add_descriptor``: add ``data`` (whole ROM blocks) to the configuration ROM,
@@ -30,7 +30,7 @@ The operations (``Op``) it owns, and how their fields are used:
 * ``iso_send``: a stream packet on channel ``node`` (``extended_tcode``: tag << 4 |
   sy; ``data``: the payload) for every client listening to that channel.
 * ``iso_listen``: the client hears the channels of the 64-bit mask ``offset`` (0:
-  none); each packet is pushed as an :data:`~fw1394.transport.adapter_iso.ISO_PACKET`.
+  none); each packet is pushed as an :data:`~fw1394.transport.host_adapter.iso.ISO_PACKET`.
 
 ``read``, ``write`` and ``lock`` addressed to the adapter's own physical ID are
 served here too, as a PC's kernel serves requests to its own node.
@@ -55,11 +55,11 @@ from fw1394.packets import (
 from fw1394.packets.accessors import TCODE
 from fw1394.packets.fast import encode_packet
 from fw1394.packets.nodeid import LOCAL_BUS, is_broadcast
-from fw1394.transport.adapter_iso import IsoChannels
-from fw1394.transport.adapter_node import Answer, Incoming, LocalNode, Push
-from fw1394.transport.adapter_protocol import Op, Reply, Request, Status
+from fw1394.transport.host_adapter.iso import IsoChannels
+from fw1394.transport.host_adapter.local_node import Answer, Incoming, LocalNode, Push
+from fw1394.transport.host_adapter.protocol import Op, Reply, Request, Status
 from fw1394.transport.link import ACK, ACK_BYTES, ASYNC_PACKET
-from fw1394.transport.wire import ACK_PAYLOAD, FrameHeader
+from fw1394.transport.sansio.wire import ACK_PAYLOAD, FrameHeader
 
 if TYPE_CHECKING:
     from fw1394.transport.bus_host import BusHost

@@ -5,9 +5,9 @@ of its group (on loopback, and over a LAN with ``ttl`` >= 1), which is what a
 1394 PHY's repeating of every packet gives a real bus. A frame for every member
 or for broadcast goes to the bus group, which every member joins; a frame
 addressed to one node goes to that node's shard group
-(:data:`~fw1394.transport.config.SHARDS`), which only its shard's members and
+(:data:`~fw1394.transport.sansio.config.SHARDS`), which only its shard's members and
 the taps join: the kernel then copies it to a few sockets instead of all 63,
-and the link's filter (:mod:`fw1394.transport.bpf`) drops the shard's others.
+and the link's filter (:mod:`fw1394.transport.media.bpf`) drops the shard's others.
 A tap joins every group on one socket, so it still reads the bus as one
 stream in the order the kernel took the frames.
 """
@@ -20,10 +20,10 @@ import time
 from collections.abc import Callable
 
 from fw1394.packets.nodeid import BROADCAST_PHY
-from fw1394.transport import bpf
-from fw1394.transport.config import SHARDS, BusConfig
-from fw1394.transport.idle import BLOCK, IdleStrategy, Waiter, set_receive_timeout
-from fw1394.transport.wire import CONTROL_KINDS, DESTINATION_OFFSET, KIND_OFFSET
+from fw1394.transport.media import bpf
+from fw1394.transport.media.idle import BLOCK, IdleStrategy, Waiter, set_receive_timeout
+from fw1394.transport.sansio.config import SHARDS, BusConfig
+from fw1394.transport.sansio.wire import CONTROL_KINDS, DESTINATION_OFFSET, KIND_OFFSET
 
 #: Room for bursts (a 63-node self-ID phase, back-to-back block responses).
 RECEIVE_BUFFER = 1 << 21
@@ -42,7 +42,7 @@ FIRST_CONTROL_KIND = min(CONTROL_KINDS)
 class Medium:
     """A socket bound to the bus group; ``poll_interval`` bounds a blocking receive.
 
-    ``idle`` is how :meth:`receive` waits (:mod:`fw1394.transport.idle`); plain
+    ``idle`` is how :meth:`receive` waits (:mod:`fw1394.transport.media.idle`); plain
     blocking unless given, as for taps and tools that only listen.
     """
 
@@ -99,7 +99,7 @@ class Medium:
 
     def sleep_until(self, deadline: Callable[[], float]) -> None:
         """Block, when nothing comes, until ``deadline()`` (monotonic) rather than
-        for one poll interval (:attr:`fw1394.transport.idle.Waiter.deadline`)."""
+        for one poll interval (:attr:`fw1394.transport.media.idle.Waiter.deadline`)."""
         self._waiter.deadline = deadline
 
     def _listen_on(self, groups: set[str]) -> None:

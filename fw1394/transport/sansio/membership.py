@@ -1,7 +1,7 @@
 """Who is on the bus, and bus resets: a sans-IO state machine every member runs.
 
 One member coordinates: the one with physical ID 0, i.e. the lowest sort key
-(see :class:`~fw1394.transport.wire.MemberInfo`). It beacons, collects
+(see :class:`~fw1394.transport.sansio.wire.MemberInfo`). It beacons, collects
 heartbeats, admits joiners, notices leases running out and leaving members,
 and then starts a bus reset: a ``bus_reset`` frame listing the members of the
 new generation in physical-ID order, after which every listed member sends its
@@ -23,8 +23,8 @@ import math
 from dataclasses import dataclass, field
 from enum import StrEnum
 
-from fw1394.transport.selfid import is_self_id, self_id_bytes
-from fw1394.transport.wire import (
+from fw1394.transport.sansio.selfid import is_self_id, self_id_bytes
+from fw1394.transport.sansio.wire import (
     EVERY_MEMBER,
     MAX_MEMBERS,
     FrameError,

@@ -25,8 +25,9 @@ from dataclasses import dataclass, field
 import crcmod
 from construct import GreedyBytes, Int8ub, Int16ub, Int32ub, Int64ub, Struct
 
+from fw1394.packets import nodeid
 from fw1394.packets.enums import ExtendedTCode, RCode, TCode
-from fw1394.packets.nodeid import LOCAL_BUS
+from fw1394.packets.nodeid import BROADCAST_PHY
 
 #: Offset of the CSR core registers in every node's address space.
 CSR_BASE = 0xFFFF_F000_0000
@@ -81,6 +82,9 @@ _crc16 = crcmod.mkCrcFun(0x11021, initCrc=0, rev=False, xorOut=0)
 _READS = (TCode.read_quadlet_request, TCode.read_block_request)
 _WRITES = (TCode.write_quadlet_request, TCode.write_block_request)
 _RCODES = frozenset(int(r) for r in RCode)
+
+#: BUS_MANAGER_ID while no node is bus manager: 63, the broadcast physical ID.
+NO_BUS_MANAGER = BROADCAST_PHY
 
 
 @dataclass(frozen=True, slots=True)
@@ -217,12 +221,12 @@ class LocalNode:
     clock: Callable[[], float] = time.monotonic
     rom: list[int] = field(default_factory=adapter_config_rom)
     rom_version: int = 0
-    phy_id: int = 63
+    phy_id: int = BROADCAST_PHY  # no physical ID of its own until the first reset
     generation: int = 0
     self_ids: tuple[bytes, ...] = ()
     state: int = 0
     split_timeout: tuple[int, int] = (0, 800 << 19)
-    bus_manager_id: int = 0x3F
+    bus_manager_id: int = NO_BUS_MANAGER
     bandwidth: int = BANDWIDTH_UNITS
     channels: tuple[int, int] = (0xFFFFFFFF, 0xFFFFFFFF)
     listeners: list[Listener] = field(default_factory=list)
@@ -236,7 +240,7 @@ class LocalNode:
 
     @property
     def node_id(self) -> int:
-        return LOCAL_BUS << 6 | self.phy_id
+        return nodeid.node_id(self.phy_id)
 
     def cycle_time(self) -> int:
         """The node's CYCLE_TIME register now (the adapter is the bus's cycle master)."""
@@ -247,7 +251,7 @@ class LocalNode:
         """A new generation: the node's own physical ID and the self-ID packets."""
         self.phy_id, self.generation, self.self_ids = phy_id, generation, tuple(self_ids)
         # The resource manager's registers start over at every reset (IEEE 1394a 8.3.2.3).
-        self.bus_manager_id, self.bandwidth = 0x3F, BANDWIDTH_UNITS
+        self.bus_manager_id, self.bandwidth = NO_BUS_MANAGER, BANDWIDTH_UNITS
         self.channels = (0xFFFFFFFF, 0xFFFFFFFF)
 
     def bus_state(self) -> bytes:

@@ -20,14 +20,14 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import FrameType
 
-from fw1394.transport.runtime import NodeRecord, prepare, write_nodes
 from fw1394.transport.supervision.procs import die_with_parent
+from fw1394.transport.supervision.runtime import NodeRecord, prepare, write_nodes
 from fw1394.transport.supervision.stop import stop
 
 #: The node program: run by module name (the node package sits above the transport).
 NODE_MODULE = "fw1394.node"
 #: The host adapter program (not imported: it is a process of its own).
-ADAPTER_MODULE = "fw1394.transport.adapter"
+ADAPTER_MODULE = "fw1394.transport.host_adapter.server"
 #: Board IDs are the 4-bit rotary switch of the thesis boards.
 BOARD_ID_MODULUS = 16
 
@@ -99,7 +99,7 @@ def main(argv: list[str]) -> int:
         write_nodes(directory, records)
         restarts = [Restart() for _ in children]
         commands = [node_command(args, index, passthrough) for index in range(len(children))]
-        if args.adapter:  # the bus's shared host node (fw1394.transport.adapter)
+        if args.adapter:  # the bus's shared host node (fw1394.transport.host_adapter.server)
             root = ["--root", str(args.root)] if args.root else []
             adapter = [sys.executable, "-m", ADAPTER_MODULE, "--name", args.name, *root]
             commands.append([*adapter, "--parent-pid", str(os.getpid()), *passthrough])

@@ -3,11 +3,11 @@
 On a real 1394 bus the PC is one node (its OHCI link) however many programs
 use it; a program opening ``/dev/fw*`` causes no bus reset. The adapter is
 that node for a virtual bus: ``fw1394 bus up`` starts it as
-``python -m fw1394.transport.adapter``, it joins the bus once as a
+``python -m fw1394.transport.host_adapter.server``, it joins the bus once as a
 :class:`~fw1394.transport.bus_host.BusHost`, and listens on the Unix socket
 ``adapter.sock`` (mode 0600) in the bus's runtime directory. Clients
 (``fw1394 read``, the host library's ``AdapterPort``, scripts) send requests
-in the framing of :mod:`fw1394.transport.adapter_protocol`; the adapter runs
+in the framing of :mod:`fw1394.transport.host_adapter.protocol`; the adapter runs
 them on its own transaction labels, so several clients with several
 transactions each share the 64 labels of one node, and answers each when its
 transaction ends. Clients come and go without the bus noticing.
@@ -43,7 +43,9 @@ from fw1394.packets.accessors import TCODE, TLABEL
 from fw1394.packets.ack import ack_code
 from fw1394.packets.enums import AckCode
 from fw1394.packets.tcodes import RESPONSE_TCODES
-from fw1394.transport.adapter_protocol import (
+from fw1394.transport.bus_host import BusError, BusHost, StaleGenerationError
+from fw1394.transport.copies import HostLink
+from fw1394.transport.host_adapter.protocol import (
     CHOSEN,
     NONE,
     STALE,
@@ -57,18 +59,16 @@ from fw1394.transport.adapter_protocol import (
     choose_version,
     parse_request,
 )
-from fw1394.transport.adapter_services import NodeServices, is_request
-from fw1394.transport.bus_host import BusError, BusHost, StaleGenerationError
-from fw1394.transport.config import BusConfig
-from fw1394.transport.copies import HostLink
+from fw1394.transport.host_adapter.services import NodeServices, is_request
 from fw1394.transport.link import ACK, ACK_BYTES, ACK_SIZE, ASYNC_PACKET
-from fw1394.transport.membership import Timing
-from fw1394.transport.observe import BusView, watch
-from fw1394.transport.runtime import adapter_socket, prepare
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import Timing
+from fw1394.transport.sansio.wire import ACK_PAYLOAD, NO_PHY, FrameHeader, pack_table
+from fw1394.transport.supervision.observe import BusView, watch
 from fw1394.transport.supervision.procs import die_with_parent
-from fw1394.transport.wire import ACK_PAYLOAD, NO_PHY, FrameHeader, pack_table
+from fw1394.transport.supervision.runtime import adapter_socket, prepare
 
-ADAPTER_MODULE = "fw1394.transport.adapter"
+ADAPTER_MODULE = "fw1394.transport.host_adapter.server"
 PID_FILE = "adapter.pid"
 #: The adapter wakes at least this often (timers of the bus and of raw sends).
 _LONGEST_SLEEP = 0.05
@@ -484,7 +484,7 @@ def adapter_pid(directory: Path) -> int | None:
 
 def parse_args(argv: list[str]) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
-        prog="python -m fw1394.transport.adapter",
+        prog="python -m fw1394.transport.host_adapter.server",
         description="The host adapter of a virtual bus (started by `fw1394 bus up`).",
         allow_abbrev=False,
     )

@@ -13,7 +13,7 @@ from collections.abc import Hashable
 
 from construct import GreedyBytes, Int8ub, Int16ub, Struct
 
-from fw1394.transport.adapter_node import Push
+from fw1394.transport.host_adapter.local_node import Push
 
 #: A received stream packet (``data`` of a push to an ``iso_listen`` request).
 ISO_PACKET = Struct(

@@ -16,7 +16,7 @@ import struct
 
 from fw1394.packets.frame import FRAME_HEADER_SPANS
 from fw1394.packets.nodeid import BROADCAST_PHY
-from fw1394.transport.wire import EVERY_MEMBER, MAGIC, FrameKind
+from fw1394.transport.sansio.wire import EVERY_MEMBER, MAGIC, FrameKind
 
 SO_ATTACH_FILTER = 26
 #: For UDP sockets the filter sees the packet from the UDP header on.

@@ -1,23 +1,12 @@
-"""The tunnel's frame format: one UDP datagram carries one frame.
+"""The bus's frames: what the header's fields mean, and the bus-management payloads.
 
-Every frame starts with a 24-byte header (big-endian)::
-
-    0  u16  magic 0x4657 ("FW")
-    2  u8   version (1)
-    3  u8   kind (:class:`FrameKind`)
-    4  u32  bus tag (from the bus name)
-    8  u32  sender member id (random per process, never 0)
-    12 u32  bus generation the sender is in
-    16 u8   sender physical ID (0xFF before its first self-ID phase)
-    17 u8   destination physical ID (0-62 a node, 63 broadcast, 0xFF every member)
-    18 u8   speed code of the packet (S100..S800)
-    19 u8   reserved, 0
-    20 u32  sender sequence number (per member, wraps)
-
-The payload that follows depends on the kind; ``docs/virtual-bus.md`` lists
-them byte by byte. The layout is described once, in :mod:`fw1394.packets.frame`;
-the struct formats, the size and the offsets the kernel socket filter
-(:mod:`fw1394.transport.bpf`) reads in place are derived from it here.
+A frame is a header and a payload that depends on the header's kind. The
+header is described once, in :mod:`fw1394.packets.frame`; the struct formats,
+the size and the offsets the kernel socket filter
+(:mod:`fw1394.transport.media.bpf`) reads in place are derived from it here.
+This module adds what the header's fields mean to the bus (:class:`FrameKind`,
+the special physical IDs) and the bus-management payloads;
+``docs/virtual-bus.md`` lists every kind's payload byte by byte.
 """
 
 from __future__ import annotations

@@ -9,9 +9,10 @@ import time
 from pathlib import Path
 
 from fw1394.errors import Error
-from fw1394.transport.config import BusConfig
-from fw1394.transport.observe import BusView, watch
-from fw1394.transport.runtime import (
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.supervision.bus_key import KEY_ENV, KEY_FILE_ENV, write_key
+from fw1394.transport.supervision.observe import BusView, watch
+from fw1394.transport.supervision.runtime import (
     KEY_FILE,
     SUPERVISOR_MODULE,
     NodeRecord,
@@ -21,7 +22,6 @@ from fw1394.transport.runtime import (
     stop_bus,
     supervisor_alive,
 )
-from fw1394.transport.seal import KEY_ENV, KEY_FILE_ENV, write_key
 from fw1394.transport.supervision.stop import stop
 
 
@@ -61,7 +61,7 @@ class LaunchedBus:
         self.root = root
         self.node_arguments = node_arguments
         self.log = log
-        #: The bus key (``fw1394.transport.seal``): every node is given it; None: insecure.
+        #: The bus key (``fw1394.transport.sansio.seal``): every node is given it; None: insecure.
         self.key = key
         #: Restart a node process that dies (with back-off), as ``bus up`` does.
         self.restart = restart

@@ -12,10 +12,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from fw1394.packets.frame import FRAME_TRAILER_SIZE
-from fw1394.transport.config import BusConfig
-from fw1394.transport.media import open_medium
-from fw1394.transport.seal import Sealer, Verifier, key_for
-from fw1394.transport.wire import (
+from fw1394.transport.media.choice import open_medium
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.seal import Sealer, Verifier
+from fw1394.transport.sansio.wire import (
     EVERY_MEMBER,
     HEADER_SIZE,
     MEMBER,
@@ -28,6 +28,7 @@ from fw1394.transport.wire import (
     parse_header,
     parse_table,
 )
+from fw1394.transport.supervision.bus_key import key_for
 
 #: How long a keyless observer that heard a beacon without a MAC listens on for
 #: one with a MAC (three of the default heartbeats).

@@ -72,7 +72,7 @@ class BusConfig:
     ``interface`` is the local IPv4 address multicast leaves and arrives on:
     loopback by default, the address of a LAN interface to span machines.
     ``ttl`` 0 keeps every datagram on this host; a LAN bus needs 1.
-    ``key`` is the bus's secret (``fw1394.transport.seal``): None looks it up
+    ``key`` is the bus's secret (``fw1394.transport.sansio.seal``): None looks it up
     (environment, then the bus's runtime directory), ``b""`` means insecure.
     """
 

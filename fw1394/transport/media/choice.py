@@ -2,9 +2,9 @@
 
 Both carry the same frames (:mod:`fw1394.packets.frame`) with the same
 semantics (``docs/virtual-bus.md``, "Media"). Every bus uses the UDP medium
-(:class:`~fw1394.transport.medium.Medium`) unless ``FW1394_MEDIUM=shm`` puts a
+(:class:`~fw1394.transport.media.udp.Medium`) unless ``FW1394_MEDIUM=shm`` puts a
 bus that lives on one host on
-:class:`~fw1394.transport.shared_medium.SharedMedium`: a member stopped
+:class:`~fw1394.transport.media.shared_memory.SharedMedium`: a member stopped
 (SIGSTOP, a debugger) while it holds the ring's writer lock stalls every
 writer of a shared-memory bus, which the pause guarantees of the UDP bus do not
 allow, and on the machines measured so far the ring was not faster. Every
@@ -19,10 +19,10 @@ from collections.abc import Callable
 from typing import Protocol
 
 from fw1394.errors import UsageError
-from fw1394.transport.config import BusConfig
-from fw1394.transport.idle import BLOCK, IdleStrategy
-from fw1394.transport.medium import Medium
-from fw1394.transport.shared_medium import SharedMedium
+from fw1394.transport.media.idle import BLOCK, IdleStrategy
+from fw1394.transport.media.shared_memory import SharedMedium
+from fw1394.transport.media.udp import Medium
+from fw1394.transport.sansio.config import BusConfig
 
 ENVIRONMENT = "FW1394_MEDIUM"
 SHARED, UDP = "shm", "udp"

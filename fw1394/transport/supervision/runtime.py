@@ -23,12 +23,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
 from fw1394.errors import Error
-from fw1394.transport.config import check_bus_name
+from fw1394.transport.sansio.config import check_bus_name
 from fw1394.transport.supervision.procs import process_alive
 from fw1394.transport.supervision.stop import GRACE, Pid, stop
 
 if TYPE_CHECKING:
-    from fw1394.transport.wire import MemberInfo
+    from fw1394.transport.sansio.wire import MemberInfo
 
 
 class DropCounts(Protocol):
@@ -50,8 +50,8 @@ class DropCounts(Protocol):
     @property
     def total(self) -> int: ...
 
-SUPERVISOR_MODULE = "fw1394.transport.supervisor"
-#: The bus key's file in the bus's directory (fw1394.transport.seal).
+SUPERVISOR_MODULE = "fw1394.transport.supervision.supervisor"
+#: The bus key's file in the bus's directory (fw1394.transport.sansio.seal).
 KEY_FILE = "key"
 MEMBERS_DIR = "members"
 
@@ -187,7 +187,7 @@ def prepare(name: str, root: Path | None = None) -> Path:
 
 
 def adapter_socket(directory: Path) -> Path:
-    """Where the bus's host adapter listens (fw1394.transport.adapter)."""
+    """Where the bus's host adapter listens (fw1394.transport.host_adapter.server)."""
     return directory / "adapter.sock"
 
 

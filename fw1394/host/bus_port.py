@@ -4,13 +4,15 @@ from __future__ import annotations
 
 import functools
 import time
+from typing import Any
 
 from fw1394.engine import LockCompleted, TransactionEvent, TransactionFailed
 from fw1394.transport.bus_host import BusHost, StaleGenerationError, TransactionError
 from fw1394.transport.express import Express
-from fw1394.transport.wire import MemberInfo
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.wire import MemberInfo
 
-__all__ = ["BusPort", "StaleGenerationError", "TransactionError"]
+__all__ = ["BusPort", "StaleGenerationError", "TransactionError", "open_bus"]
 
 
 def _ended(event: TransactionEvent) -> TransactionEvent:
@@ -97,3 +99,15 @@ class BusPort(BusHost):
         event = _ended(self.wait(tid))
         assert isinstance(event, LockCompleted)
         return event.old_value
+
+
+def open_bus(name: str = "default", **options: Any) -> BusPort:
+    """Join bus ``name`` as a host: a :class:`BusPort`, closed by ``with`` or ``close()``.
+
+    ``options`` are :class:`~fw1394.transport.bus_host.BusHost`'s (``ack_timeout``,
+    ``split_timeout``, ``join_timeout``, ...). The bus must be running (``fw1394 bus
+    up NAME``, or a :class:`~fw1394.transport.supervision.launch.LaunchedBus`); reads and
+    writes raise :class:`fw1394.TransactionError` (:class:`fw1394.Timeout` when nothing
+    answered).
+    """
+    return BusPort(BusConfig(name), **options)
