@@ -73,7 +73,15 @@ def run(
         return campaign.run(worker_settings(settings, 0, 1), progress, restart=restart, store=store)
     work = [(worker_settings(settings, w, jobs), restart, w) for w in range(jobs)]
     with ProcessPoolExecutor(jobs, mp_context=_context()) as pool:
-        reports = list(pool.map(_work, work))
+        futures = [pool.submit(_work, job) for job in work]
+        try:
+            reports = [future.result() for future in futures]
+        except campaign.Terminated:
+            # SIGTERM reached this process only: hand it on, so that every worker ends
+            # its campaign now and returns what it found, as one job would.
+            for child in multiprocessing.active_children():
+                child.terminate()
+            reports = [future.result() for future in futures]
     return merge(settings, reports, time.monotonic() - start)
 
 

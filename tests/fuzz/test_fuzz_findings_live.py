@@ -146,6 +146,42 @@ def test_sigterm_stops_a_campaign_at_once_with_its_findings_saved(tmp_path: Path
     assert all(not f.shrunk for _, f in loaded)
 
 
+def children(pid: int) -> list[str]:
+    try:
+        return Path(f"/proc/{pid}/task/{pid}/children").read_text().split()
+    except OSError:
+        return []
+
+
+def test_sigterm_stops_every_worker_and_keeps_their_findings(tmp_path: Path) -> None:
+    """With --jobs the workers are other processes; SIGTERM reaches the campaign's only."""
+    found = tmp_path / "found"
+    workers: list[int] = []
+    process = subprocess.Popen(
+        inproc_campaign(found, "--json", "--jobs", "2"),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        wait_for(lambda: len(children(process.pid)) >= 2 or process.poll() is not None, 60)
+        time.sleep(3)  # the workers import and fuzz
+        assert process.poll() is None
+        workers = [int(pid) for pid in children(process.pid)]
+        process.send_signal(signal.SIGTERM)
+        out, err = process.communicate(timeout=60)
+    finally:
+        process.kill()
+        process.wait(30)
+        for pid in workers:  # (gone already unless the test failed)
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGKILL)
+    assert process.returncode == 1, err
+    report = json.loads(out)
+    assert report["stopped"] == "terminated (SIGTERM)"
+    assert report["cases"] > 0 and len(load(found)) == len(report["findings"]) >= 3
+
+
 @pytest.mark.slow
 @pytest.mark.timeout(300)
 def test_shrinking_stays_inside_the_duration_and_shows_progress(tmp_path: Path) -> None:
