@@ -14,7 +14,7 @@ from __future__ import annotations
 import multiprocessing
 import random
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import replace
 
 from fw1394.fuzz import campaign
@@ -81,8 +81,18 @@ def run(
             # its campaign now and returns what it found, as one job would.
             for child in multiprocessing.active_children():
                 child.terminate()
-            reports = [future.result() for future in futures]
+            # A worker stopped before its campaign began has nothing to give.
+            reports = [r for r in map(_stopped_result, futures) if r is not None]
+            if not reports:
+                raise
     return merge(settings, reports, time.monotonic() - start)
+
+
+def _stopped_result(future: Future[Report]) -> Report | None:
+    try:
+        return future.result()
+    except campaign.Terminated:
+        return None
 
 
 def _work(job: tuple[Settings, str | None, int]) -> Report:

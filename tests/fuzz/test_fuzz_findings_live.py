@@ -26,6 +26,9 @@ from fw1394.fuzz.findings import load
 
 pytestmark = [pytest.mark.process]
 
+#: Seconds a campaign process may take to start and find its first findings (its
+#: imports alone take a while on a loaded machine).
+STARTUP_S = 150
 #: Planted defects, each found within the first few hundred cases.
 DEFECTS = ("answers-other-node", "stale-tlabel", "broadcast-read-answered")
 
@@ -86,6 +89,7 @@ def destination_node(packet: bytes) -> int:
     return int.from_bytes(packet[:4], "big") >> 16 & 0x3F
 
 
+@pytest.mark.timeout(300)
 def test_a_campaign_killed_mid_run_keeps_every_finding_so_far(tmp_path: Path) -> None:
     found = tmp_path / "found"
     process = subprocess.Popen(
@@ -94,7 +98,7 @@ def test_a_campaign_killed_mid_run_keeps_every_finding_so_far(tmp_path: Path) ->
         stderr=subprocess.PIPE,
     )
     try:
-        wait_for(lambda: len(reproducers(found)) >= 3 or process.poll() is not None, 60)
+        wait_for(lambda: len(reproducers(found)) >= 3 or process.poll() is not None, STARTUP_S)
         time.sleep(0.5)  # and a little more fuzzing
         assert process.poll() is None, process.stderr.read() if process.stderr else ""
         process.kill()  # SIGKILL: nothing runs after this
@@ -118,6 +122,7 @@ def test_a_campaign_killed_mid_run_keeps_every_finding_so_far(tmp_path: Path) ->
     assert all(not f.shrunk for _, f in loaded)
 
 
+@pytest.mark.timeout(300)
 def test_sigterm_stops_a_campaign_at_once_with_its_findings_saved(tmp_path: Path) -> None:
     """What ``timeout 150 fw1394 fuzz run ...`` sends: the run ends now, findings as found."""
     found = tmp_path / "found"
@@ -128,7 +133,7 @@ def test_sigterm_stops_a_campaign_at_once_with_its_findings_saved(tmp_path: Path
         text=True,
     )
     try:
-        wait_for(lambda: len(reproducers(found)) >= 3 or process.poll() is not None, 60)
+        wait_for(lambda: len(reproducers(found)) >= 3 or process.poll() is not None, STARTUP_S)
         assert process.poll() is None
         process.send_signal(signal.SIGTERM)
         out, err = process.communicate(timeout=60)  # not the 120 s of --duration
@@ -153,6 +158,7 @@ def children(pid: int) -> list[str]:
         return []
 
 
+@pytest.mark.timeout(300)
 def test_sigterm_stops_every_worker_and_keeps_their_findings(tmp_path: Path) -> None:
     """With --jobs the workers are other processes; SIGTERM reaches the campaign's only."""
     found = tmp_path / "found"
@@ -164,7 +170,7 @@ def test_sigterm_stops_every_worker_and_keeps_their_findings(tmp_path: Path) -> 
         text=True,
     )
     try:
-        wait_for(lambda: len(children(process.pid)) >= 2 or process.poll() is not None, 60)
+        wait_for(lambda: len(children(process.pid)) >= 2 or process.poll() is not None, STARTUP_S)
         time.sleep(3)  # the workers import and fuzz
         assert process.poll() is None
         workers = [int(pid) for pid in children(process.pid)]
