@@ -47,17 +47,17 @@ from typing import Any
 from fw1394.experiments.frame_floor import FrameFloor
 from fw1394.experiments.regime import Regime, same_regime, settle, settle_time, switches
 from fw1394.experiments.timing import SWITCH_WARMUP, cpu_split, pin
+from fw1394.host.bus_port import BusPort
 from fw1394.packets import QuadletReadRequest
 from fw1394.packets.fast import encode_packet
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.config import BusConfig
-from fw1394.transport.idle import Waiter, default_idle, parse_idle
-from fw1394.transport.media import ENVIRONMENT as MEDIUM_ENV
-from fw1394.transport.medium import MAX_FRAME, Medium
-from fw1394.transport.membership import Timing
-from fw1394.transport.shared_medium import SharedMedium
+from fw1394.transport.media.choice import ENVIRONMENT as MEDIUM_ENV
+from fw1394.transport.media.idle import Waiter, default_idle, parse_idle
+from fw1394.transport.media.shared_memory import SharedMedium
+from fw1394.transport.media.udp import MAX_FRAME, Medium
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import Timing
+from fw1394.transport.sansio.wire import FrameHeader, FrameKind
 from fw1394.transport.supervision.stop import stop
-from fw1394.transport.wire import FrameHeader, FrameKind
 
 BLOCK = 2048  # 512 quadlets
 NODE_COUNTS = (1, 2, 4, 8, 16, 32, 62)
@@ -105,7 +105,7 @@ def timed(action: Callable[[], object], count: int) -> list[float]:
 # a ratio pay the same wake-ups.
 ECHO = """
 import socket, sys
-from fw1394.transport.idle import Waiter, default_idle, parse_idle
+from fw1394.transport.media.idle import Waiter, default_idle, parse_idle
 s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
 s.bind(("127.0.0.1", 0))
 s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVTIMEO, (1).to_bytes(8, "little") + bytes(8))
@@ -347,7 +347,7 @@ def shared_memory_ping_pong(count: int, frames: int = 2) -> dict[str, float]:
 
 def shared_medium_ping_pong(count: int, idle: str) -> dict[str, float]:
     """Round trips of a 40-byte frame between two members of a bus on the shared-memory
-    medium (:mod:`fw1394.transport.shared_medium`), both waiting by ``idle``."""
+    medium (:mod:`fw1394.transport.media.shared_memory`), both waiting by ``idle``."""
     config = BusConfig(f"mechshm{os.getpid()}", key=b"")
     strategy = parse_idle(idle)
     frame_to = {
@@ -601,8 +601,9 @@ def mac_cost(quick: bool) -> dict[str, Any]:
     import tempfile
     from pathlib import Path
 
-    from fw1394.transport.launch import LaunchedBus
-    from fw1394.transport.seal import Sealer, Verifier, new_key
+    from fw1394.transport.sansio.seal import Sealer, Verifier
+    from fw1394.transport.supervision.bus_key import new_key
+    from fw1394.transport.supervision.launch import LaunchedBus
 
     key = new_key()
     header = FrameHeader(FrameKind.async_packet, 1, 2, 3, 1, 0).pack()

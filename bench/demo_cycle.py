@@ -44,7 +44,6 @@ from fw1394.boards.snake2010.spec import ENCODER_MIDPOINT
 from fw1394.cli.dissect import positive
 from fw1394.demo.run import AXES_PER_BOARD, BOARDS, GAINS, trajectory
 from fw1394.engine import Responder
-from fw1394.engine.fast_responder import FastResponder
 from fw1394.engine.policy import POLICIES
 from fw1394.engine.space import TICKS_PER_SECOND
 from fw1394.host import Board, MultiBoard, PositionLoop
@@ -187,7 +186,7 @@ def responder_cycle(space_kind: str, which: str) -> Piece:
     """``which`` ("read" or "write") of a demo cycle on a node: snake2010, held or memory."""
     space = MemorySpace(4096) if space_kind == "memory" else _moving_snake()
     amplitude = 0 if space_kind == "held" else 12_000
-    fast = FastResponder(Responder(ME, space, POLICIES["thesis"]))
+    responder = Responder(ME, space, POLICIES["thesis"])
     length = realtime_read_length(CHANNELS)
     read = encode_packet(
         BlockReadRequest(destination_id=ME, source_id=HOST, tlabel=1, offset=0, data_length=length)
@@ -203,7 +202,7 @@ def responder_cycle(space_kind: str, which: str) -> Piece:
     def run(cycles: int) -> None:
         # Both transactions go on every cycle (the write changes the drives); only
         # ``which`` is timed, so the other one's time is taken out again.
-        serve, now = fast.serve, clock[0]
+        serve, now = responder.serve, clock[0]
         timer, spent = time.process_time, 0.0
         for cycle in range(cycles):
             now += 0.001

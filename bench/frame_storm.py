@@ -29,16 +29,17 @@ from pathlib import Path
 from typing import Any
 
 from fw1394.fuzz.bus_frames import hostile_frame
+from fw1394.host.bus_port import BusPort
 from fw1394.transport.bus_host import BusError, TransactionError
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.config import BusConfig
-from fw1394.transport.launch import LaunchedBus
-from fw1394.transport.media import BusMedium, open_medium
-from fw1394.transport.medium import Medium
-from fw1394.transport.membership import Timing
-from fw1394.transport.seal import Sealer, new_key
+from fw1394.transport.media.choice import BusMedium, open_medium
+from fw1394.transport.media.udp import Medium
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import Timing
+from fw1394.transport.sansio.seal import Sealer
+from fw1394.transport.sansio.wire import DESTINATION_OFFSET
+from fw1394.transport.supervision.bus_key import new_key
+from fw1394.transport.supervision.launch import LaunchedBus
 from fw1394.transport.supervision.procs import process_alive
-from fw1394.transport.wire import DESTINATION_OFFSET
 
 ARGS = ("--heartbeat", "0.05", "--lease", "0.5")
 TIMING = Timing(heartbeat=0.05, lease=0.5)

@@ -2,38 +2,61 @@
 
     python bench/mutation.py                          # every plan entry (hours)
     python bench/mutation.py --sample 30              # 30 mutants per plan entry, seeded
-    python bench/mutation.py fw1394/transport/seal.py # named modules (their tests by the plan)
+    python bench/mutation.py fw1394/transport/sansio/seal.py  # named modules, tests by plan
     python bench/mutation.py --changed HEAD~1 --budget 600   # what a change touched
     python bench/mutation.py --json                   # one JSON object for scripts
 
 Each plan entry's files are mutated by cosmic-ray from one work database (operators:
 comparisons, arithmetic, boolean and unary operators, numbers, break/continue,
-exceptions, ...), ``--sample`` draws that many mutants across all of them, and the
-test directories that the plan below names for the entry run against every
-mutant, without the tests that start processes (``-m "not process"``: they take
-minutes per mutant, and a child started from a non-editable install would not
-see the mutant). A mutant is *killed* when those tests
-fail or time out, *survived* when they pass. Survivors are printed with their
-file, line and diff: each is a missing test or an equivalent mutant, and
-``docs/testing.md`` records the triage. The score is killed / (killed + survived).
+exceptions, ...). Mutants inside an annotation of a module with ``from __future__
+import annotations`` are set aside as equivalent (such annotations are never
+evaluated); ``--sample`` draws that many of the others, reproducibly for a
+``--seed``. Only the tests that matter run against a mutant:
 
-The files are mutated in place and restored by cosmic-ray after each mutant: run
-it in a checkout where nothing else is running.
+* the plan's tests run once under coverage, each test in its own coverage context,
+  which gives, for every line, the tests that execute it;
+* a mutant inside a function body runs only the tests that executed its lines;
+  one on code that runs on import (module and class bodies, defaults, decorators)
+  runs all of the entry's planned tests; one on a line no planned test executes is a
+  survivor without a run.
+
+Tests run without the ones that start processes (``-m "not process"``: they take
+minutes per mutant, and a child process would not see the mutant), each run in a
+child forked from this process, which has the test libraries loaded and keeps
+compiled bytecode (in a scratch ``sys.pycache_prefix``) for everything but the
+mutated module. A mutant is *killed* when its tests fail or time out, *survived*
+when they pass. Survivors are printed with their file, line and diff: each is a
+missing test or an equivalent mutant, and ``docs/testing.md`` records the triage.
+The score is killed / (killed + survived).
+
+The files are mutated in place and restored after each mutant; the tests import
+the library of the checkout this script is in. Run it in a checkout where nothing
+else runs (a copy of the working tree will do).
 """
 
 from __future__ import annotations
 
 import argparse
+import ast
+import contextlib
+import difflib
 import importlib.util
 import json
+import os
 import random
-import sqlite3
+import re
+import shlex
+import signal
 import subprocess
 import sys
 import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from cosmic_ray.work_item import MutationSpec, WorkItem  # type: ignore[import-untyped]
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -42,17 +65,19 @@ PLAN: dict[str, tuple[str, ...]] = {
     "fw1394/crc": ("tests/crc", "tests/packets/test_packet_vectors.py"),
     "fw1394/packets": ("tests/packets", "tests/crc"),
     "fw1394/engine": ("tests/engine",),
-    "fw1394/transport/seal.py": (
+    "fw1394/transport/sansio/seal.py": (
         "tests/transport/test_known_answer_frames.py",
         "tests/transport/test_bus_seal.py",
+        "tests/transport/test_seal_edges.py",
     ),
-    "fw1394/transport/wire.py": (
+    "fw1394/transport/sansio/wire.py": (
         "tests/transport/test_known_answer_frames.py",
         "tests/transport/test_bus_wire.py",
     ),
-    "fw1394/transport/membership.py": (
+    "fw1394/transport/sansio/membership.py": (
         "tests/transport/test_bus_membership.py",
         "tests/transport/test_membership_pause.py",
+        "tests/transport/test_membership_edges.py",
     ),
     "fw1394/transport/link.py": ("tests/transport/test_link.py",),
     "fw1394/boards": ("tests/boards",),
@@ -63,7 +88,11 @@ PLAN: dict[str, tuple[str, ...]] = {
         "tests/capture/test_foreign_files.py",
         "tests/capture/test_robustness_captures.py",
     ),
-    "fw1394/fuzz/judge.py": ("tests/fuzz/test_fuzz_oracles.py", "tests/fuzz/test_fuzz_defects.py"),
+    "fw1394/fuzz/judge.py": (
+        "tests/fuzz/test_fuzz_oracles.py",
+        "tests/fuzz/test_fuzz_defects.py",
+        "tests/fuzz/test_judge_edges.py",
+    ),
 }
 
 
@@ -74,6 +103,11 @@ class ModuleScore:
     survived: int = 0
     incompetent: int = 0  # the mutant could not even be imported or run
     mutants: int = 0  # all the entry's mutants, of which the sample was drawn
+    annotations: int = 0  # of those, mutants of a never-evaluated annotation (equivalent)
+    sampled: int = 0
+    uncovered: int = 0  # survivors on a line no planned test executes (not run)
+    selected_runs: int = 0  # mutants tested with only the tests that execute their line
+    seconds: float = 0.0
     survivors: list[dict[str, object]] = field(default_factory=list)
 
     @property
@@ -114,60 +148,297 @@ def changed_files(base: str) -> list[str]:
     return [line for line in done.stdout.splitlines() if (ROOT / line).exists()]
 
 
+#: How every test run starts: the in-process tiers only, stopping at the first failure.
+PYTEST_ARGS = ("-x", "-q", "-p", "no:cacheprovider", "-m", "not process")
+
+
+def command(tests: list[str] | tuple[str, ...]) -> str:
+    return shlex.join([sys.executable, "-m", "pytest", *PYTEST_ARGS, *tests])
+
+
 def config(modules: list[str], tests: tuple[str, ...], timeout: float) -> str:
-    command = f'{sys.executable} -m pytest -x -q -p no:cacheprovider -m "not process" ' + " ".join(
-        tests
-    )
     return (
         "[cosmic-ray]\n"
         f"module-path = {json.dumps(modules)}\n"
         f"timeout = {timeout}\n"
         "excluded-modules = []\n"
-        f"test-command = {json.dumps(command)}\n\n"
+        f"test-command = {json.dumps(command(tests))}\n\n"
         '[cosmic-ray.distributor]\nname = "local"\n'
     )
 
 
-def keep_sample(work: Path, sample: int, seed: int) -> int:
-    """Keep ``sample`` mutants of the work database, chosen with ``seed``; how many there were."""
-    with sqlite3.connect(work) as db:
-        jobs = [row[0] for row in db.execute("SELECT job_id FROM work_items ORDER BY job_id")]
-        if 0 < sample < len(jobs):
-            drop = set(jobs) - set(random.Random(seed).sample(jobs, sample))
-            db.executemany("DELETE FROM mutation_specs WHERE job_id = ?", [(j,) for j in drop])
-            db.executemany("DELETE FROM work_items WHERE job_id = ?", [(j,) for j in drop])
-    return len(jobs)
+Span = tuple[tuple[int, int], tuple[int, int]]
+
+
+def _spans(nodes: list[ast.expr] | list[ast.stmt]) -> list[Span]:
+    return [
+        ((n.lineno, n.col_offset), (n.end_lineno or n.lineno, n.end_col_offset or 0)) for n in nodes
+    ]
+
+
+def annotation_spans(source: str) -> list[Span]:
+    """Where the module's annotations are, if they are never evaluated (PEP 563)."""
+    tree = ast.parse(source)
+    lazy = any(
+        isinstance(node, ast.ImportFrom)
+        and node.module == "__future__"
+        and any(alias.name == "annotations" for alias in node.names)
+        for node in tree.body
+    )
+    if not lazy:
+        return []
+    found: list[ast.expr] = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef) and node.returns:
+            found.append(node.returns)
+        elif isinstance(node, ast.arg | ast.AnnAssign) and node.annotation:
+            found.append(node.annotation)
+    return _spans(found)
+
+
+def call_time_spans(source: str) -> list[Span]:
+    """Statements that run only when their function is called, never on import."""
+    found: list[ast.stmt] = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+            found.extend(node.body)
+    return _spans(found)
+
+
+def _inside(spec: MutationSpec, spans: list[Span]) -> bool:
+    return any(lo <= tuple(spec.start_pos) and tuple(spec.end_pos) <= hi for lo, hi in spans)
+
+
+# Runs the planned tests once under coverage, each test in its own coverage context,
+# after importing the entry's modules so that import-time lines fall in the empty context;
+# writes the node IDs of the tests that fail without any mutant beside the data file.
+_COVER = """
+import importlib, sys, coverage, pytest
+data_file, files, modules, *args = sys.argv[1:]
+cov = coverage.Coverage(data_file=data_file, include=files.split(","), branch=False)
+failed = set()
+class Contexts:
+    @pytest.hookimpl(hookwrapper=True)
+    def pytest_runtest_protocol(self, item, nextitem):
+        cov.switch_context(item.nodeid)
+        yield
+        cov.switch_context("")
+    def pytest_runtest_logreport(self, report):
+        if report.failed:
+            failed.add(report.nodeid)
+cov.start()
+for name in modules.split(","):
+    try:
+        importlib.import_module(name)
+    except Exception:
+        pass
+status = pytest.main(args, plugins=[Contexts()])
+cov.stop()
+cov.save()
+open(data_file + ".failed", "w").write("".join(f"{n}\\n" for n in sorted(failed)))
+sys.exit(0 if status in (0, 1) else int(status))
+"""
+
+
+def tests_by_line(
+    modules: list[str], tests: tuple[str, ...], scratch: Path
+) -> tuple[dict[str, dict[int, set[str]]], list[str]]:
+    """Module -> line -> the planned tests (node IDs, "" for import time) that execute it;
+    and the planned tests that fail without any mutant (left out of every run)."""
+    data_file = scratch / "coverage"
+    files = [str(ROOT / m) for m in modules]
+    names = [m.removesuffix(".py").removesuffix("/__init__").replace("/", ".") for m in modules]
+    # Not -x: a test that fails on its own (a flaky one, say) is left out, not fatal;
+    # coverage slows tests down, so their timeout is longer here.
+    args = [a for a in PYTEST_ARGS if a != "-x"] + ["-o", "timeout=900"]
+    done = subprocess.run(
+        [sys.executable, "-c", _COVER, str(data_file), ",".join(files), ",".join(names),
+         *args, *tests],
+        cwd=ROOT, capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    if done.returncode != 0:
+        tail = "\n".join(done.stdout.splitlines()[-15:])
+        print(f"mutation: the planned tests cannot run:\n{tail}", file=sys.stderr)
+        raise SystemExit(1)
+    failing = Path(f"{data_file}.failed").read_text().split()
+    if failing:
+        print(f"mutation: left out, failing without mutants: {' '.join(failing)}", file=sys.stderr)
+    import coverage
+
+    data = coverage.CoverageData(basename=str(data_file))
+    data.read()
+    by_module: dict[str, dict[int, set[str]]] = {}
+    for measured in data.measured_files():
+        module = str(Path(measured).relative_to(ROOT))
+        by_module[module] = {
+            line: set(contexts) - set(failing)
+            for line, contexts in data.contexts_by_lineno(measured).items()
+        }
+    return by_module, failing
+
+
+def choose_tests(
+    spec: MutationSpec, lines: dict[int, set[str]], call_time: list[Span]
+) -> list[str] | None:
+    """The tests that execute the mutated code; None when every planned test must run.
+
+    Code that runs on import (module and class bodies, defaults, decorators) can change
+    what any test sees, so it gets the whole plan; code in a function body gets the tests
+    that executed its lines, whole functions (parametrized cases together).
+    """
+    if not _inside(spec, call_time):
+        return None
+    contexts: set[str] = set()
+    for line in range(spec.start_pos[0], spec.end_pos[0] + 1):
+        contexts |= lines.get(line, set())
+    if "" in contexts:
+        return None
+    return sorted({re.sub(r"\[.*\]$", "", context) for context in contexts})
+
+
+def enumerate_mutants(modules: list[str], tests: tuple[str, ...], scratch: Path) -> list[WorkItem]:
+    """Every cosmic-ray mutant of ``modules``, in a stable order (the work IDs are random)."""
+    from cosmic_ray.work_db import WorkDB, use_db  # type: ignore[import-untyped]
+
+    cfg, work = scratch / "cr.toml", scratch / "work.sqlite"
+    cfg.write_text(config(modules, tests, 1.0))
+    subprocess.run([sys.executable, "-m", "cosmic_ray.cli", "init", str(cfg), str(work)],
+                   cwd=ROOT, check=True)  # fmt: skip
+    with use_db(str(work), WorkDB.Mode.open) as db:
+        items = list(db.pending_work_items)
+    return sorted(items, key=lambda item: [
+        (str(m.module_path), m.start_pos, m.operator_name, m.occurrence) for m in item.mutations
+    ])  # fmt: skip
+
+
+#: Libraries the tests import, loaded once in this process so that each mutant's forked
+#: test run starts without paying for them (fw1394 itself is never imported here).
+PRELOAD = ("pytest", "hypothesis", "hypothesis.strategies", "construct", "crcmod", "numpy")
+
+
+def run_forked(tests: list[str] | tuple[str, ...], timeout: float) -> str:
+    """Run pytest on ``tests`` in a forked child: "survived", "killed" or "timeout"."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    child = os.fork()
+    if child == 0:  # pragma: no cover - the child
+        status = 3
+        try:
+            os.setsid()  # its own group, so that a timeout stops what it started too
+            quiet = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(quiet, 1)
+            os.dup2(quiet, 2)
+            import pytest
+
+            status = int(pytest.main([*PYTEST_ARGS, *tests]))
+        finally:
+            os._exit(status)
+    stop = time.monotonic() + timeout
+    while True:
+        done, status = os.waitpid(child, os.WNOHANG)
+        if done:
+            return "survived" if os.waitstatus_to_exitcode(status) == 0 else "killed"
+        if time.monotonic() > stop:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(child, signal.SIGKILL)
+            os.waitpid(child, 0)
+            return "timeout"
+        time.sleep(0.02)
+
+
+def test_mutant(
+    item: WorkItem, runs: list[list[str] | tuple[str, ...]], timeout: float
+) -> tuple[str, str]:
+    """Apply the mutant, run each test list until one fails; (outcome, diff).
+
+    Bytecode is cached (under ``sys.pycache_prefix``) for speed, except the mutated
+    module's: a mutant and its original can share a size and an mtime second.
+    """
+    from cosmic_ray.mutating import use_mutation  # type: ignore[import-untyped]
+    from cosmic_ray.plugins import get_operator  # type: ignore[import-untyped]
+
+    spec = item.mutations[0]
+    operator = get_operator(spec.operator_name)(**spec.operator_args)
+    compiled = Path(importlib.util.cache_from_source(str(ROOT / spec.module_path)))
+    outcome = "survived"
+    with use_mutation(spec.module_path, operator, spec.occurrence) as (before, after):
+        if after is None:
+            return "incompetent", ""
+        for tests in runs:
+            compiled.unlink(missing_ok=True)
+            outcome = run_forked(tests, timeout)
+            if outcome != "survived":
+                break
+    compiled.unlink(missing_ok=True)
+    name = str(spec.module_path)
+    diff = difflib.unified_diff(
+        before.splitlines(keepends=True), after.splitlines(keepends=True), "a/" + name, "b/" + name
+    )
+    return outcome, "".join(diff)
 
 
 def score_entry(
-    entry: str, modules: list[str], tests: tuple[str, ...], sample: int, seed: int, timeout: float
+    entry: str,
+    modules: list[str],
+    tests: tuple[str, ...],
+    sample: int,
+    seed: int,
+    timeout: float,
+    deadline: float | None,
 ) -> ModuleScore:
     """Mutants of the plan entry's ``modules``, ``sample`` of them drawn across all its files."""
     result = ModuleScore(entry)
+    started = time.monotonic()
+    sources = {m: (ROOT / m).read_text() for m in modules}
+    annotations = {m: annotation_spans(s) for m, s in sources.items()}
+    call_time = {m: call_time_spans(s) for m, s in sources.items()}
     with tempfile.TemporaryDirectory(prefix="fw1394-mutation-") as scratch:
-        cfg, work = Path(scratch) / "cr.toml", Path(scratch) / "work.sqlite"
-        cfg.write_text(config(modules, tests, timeout))
-        tool = [sys.executable, "-m", "cosmic_ray.cli"]
-        subprocess.run([*tool, "init", str(cfg), str(work)], cwd=ROOT, check=True)
-        result.mutants = keep_sample(work, sample, seed)
-        subprocess.run([*tool, "exec", str(cfg), str(work)], cwd=ROOT, check=True)
-        with sqlite3.connect(work) as db:
-            rows = db.execute(
-                "SELECT r.worker_outcome, r.test_outcome, r.diff, s.module_path,"
-                " s.start_pos_row, s.operator_name"
-                " FROM work_results r JOIN mutation_specs s USING (job_id)"
-            ).fetchall()
-    for worker, outcome, diff, path, line, operator in rows:
-        worker, outcome = worker.lower(), outcome.lower()  # stored as enum names
-        if worker != "normal" or outcome == "incompetent":
+        items = enumerate_mutants(modules, tests, Path(scratch))
+        result.mutants = len(items)
+        items = [
+            item for item in items
+            if not _inside(item.mutations[0], annotations[str(item.mutations[0].module_path)])
+        ]  # fmt: skip
+        result.annotations = result.mutants - len(items)
+        if 0 < sample < len(items):
+            items = random.Random(seed).sample(items, sample)
+        lines, failing = tests_by_line(modules, tests, Path(scratch))
+    left_out = [f"--deselect={test}" for test in failing]
+    everything = [*tests, *left_out]
+    for item in items:
+        if deadline is not None and time.monotonic() > deadline:
+            print(f"mutation: budget spent during {entry}", file=sys.stderr)
+            break
+        spec = item.mutations[0]
+        module = str(spec.module_path)
+        chosen = choose_tests(spec, lines.get(module, {}), call_time[module])
+        result.sampled += 1
+        if chosen == []:
+            result.uncovered += 1  # no planned test executes the line: nothing to run
+            runs: list[list[str] | tuple[str, ...]] = []
+        elif chosen is None:
+            runs = [everything]
+        else:
+            result.selected_runs += 1
+            runs = [[*chosen, *left_out]]
+        outcome, diff = test_mutant(item, runs, timeout)
+        ran = "all planned tests" if chosen is None else f"{len(chosen)} tests"
+        print(
+            f"  {result.sampled}/{len(items)} {outcome:11} {module}:{spec.start_pos[0]}"
+            f" {spec.operator_name} ({ran})",
+            file=sys.stderr,
+        )
+        if outcome == "incompetent":
             result.incompetent += 1
         elif outcome == "survived":
             result.survived += 1
-            result.survivors.append(
-                {"module": path, "line": line, "operator": operator, "diff": diff}
-            )
+            result.survivors.append({
+                "module": module, "line": spec.start_pos[0], "operator": spec.operator_name,
+                "diff": diff, "tests_run": bool(runs),
+            })  # fmt: skip
         else:
             result.killed += 1
+    result.seconds = time.monotonic() - started
     return result
 
 
@@ -176,15 +447,19 @@ def report(scores: list[ModuleScore]) -> str:
     for entry in scores:
         shown = "-" if entry.score is None else f"{entry.score:6.1%}"
         lines.append(
-            f"{entry.module:48} {shown:>7}  killed {entry.killed:4}  survived {entry.survived:4}"
-            f"  not run {entry.incompetent}  of {entry.mutants} mutants"
+            f"{entry.module:40} {shown:>7}  killed {entry.killed:4}  survived {entry.survived:4}"
+            f" (no test runs the line: {entry.uncovered})  not run {entry.incompetent}"
+            f"  | sampled {entry.sampled} of {entry.mutants - entry.annotations}"
+            f" (+{entry.annotations} annotation mutants, equivalent)"
+            f"  | {entry.selected_runs} on selected tests, {entry.seconds:.0f} s"
         )
         for survivor in entry.survivors:
             diff = "\n".join(
                 "        " + d for d in str(survivor["diff"]).splitlines() if d[:1] in "+-"
             )
             where = f"{survivor['module']}:{survivor['line']}"
-            lines.append(f"    {where} {survivor['operator']}\n{diff}")
+            untested = "" if survivor["tests_run"] else "  (no planned test runs it)"
+            lines.append(f"    {where} {survivor['operator']}{untested}\n{diff}")
     killed = sum(s.killed for s in scores)
     tried = killed + sum(s.survived for s in scores)
     total = f"{killed / tried:.1%}" if tried else "-"
@@ -213,14 +488,24 @@ def main(argv: list[str] | None = None) -> int:
     if not modules:
         print("mutation: no planned library module among " + (" ".join(paths) or "the change"))
         return 0
-    started, scores = time.monotonic(), []
-    for index, (entry, (files, tests)) in enumerate(modules.items(), 1):
-        if args.budget and time.monotonic() - started > args.budget:
-            left = len(modules) - index + 1
-            print(f"mutation: budget spent, {left} plan entries left", file=sys.stderr)
-            break
-        print(f"[{index}/{len(modules)}] {entry} against {' '.join(tests)}", file=sys.stderr)
-        scores.append(score_entry(entry, files, tests, args.sample, args.seed, args.timeout))
+    os.chdir(ROOT)  # cosmic-ray names the mutated files relative to the checkout
+    sys.path.insert(0, str(ROOT))  # the tests import this checkout's library, not an install
+    for library in PRELOAD:
+        with contextlib.suppress(ImportError):
+            importlib.import_module(library)
+    deadline = time.monotonic() + args.budget if args.budget else None
+    scores = []
+    with tempfile.TemporaryDirectory(prefix="fw1394-mutation-pyc-") as bytecode:
+        sys.pycache_prefix = bytecode  # the checkout's own __pycache__ never sees a mutant
+        for index, (entry, (files, tests)) in enumerate(modules.items(), 1):
+            if deadline is not None and time.monotonic() > deadline:
+                left = len(modules) - index + 1
+                print(f"mutation: budget spent, {left} plan entries left", file=sys.stderr)
+                break
+            print(f"[{index}/{len(modules)}] {entry} against {' '.join(tests)}", file=sys.stderr)
+            scores.append(
+                score_entry(entry, files, tests, args.sample, args.seed, args.timeout, deadline)
+            )
     if args.json:
         print(json.dumps([{**vars(s), "score": s.score} for s in scores], indent=1))
     else:

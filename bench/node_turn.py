@@ -36,14 +36,15 @@ from fw1394.packets import (
 )
 from fw1394.packets.fast import encode_packet
 from fw1394.transport import station as station_module
-from fw1394.transport.config import BusConfig
-from fw1394.transport.idle import BLOCK, IdleStrategy
 from fw1394.transport.link import ResponderLink
-from fw1394.transport.membership import Timing
+from fw1394.transport.media.idle import BLOCK, IdleStrategy
 from fw1394.transport.node_express import node_turn
-from fw1394.transport.seal import Sealer, new_key
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import Timing
+from fw1394.transport.sansio.seal import Sealer
+from fw1394.transport.sansio.wire import FrameHeader, FrameKind, MemberInfo, pack_table
 from fw1394.transport.station import Station
-from fw1394.transport.wire import FrameHeader, FrameKind, MemberInfo, pack_table
+from fw1394.transport.supervision.bus_key import new_key
 
 HOST = MemberInfo(member_id=0x0505, rank=9, contender=True, host=True)
 #: No lease, heartbeat or self-ID timeout runs out while a node serves requests

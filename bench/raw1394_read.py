@@ -41,9 +41,9 @@ from pathlib import Path
 
 from fw1394.host.adapter_port import AdapterPort
 from fw1394.raw1394.launch import environment
-from fw1394.transport.adapter import adapter_pid, wait_adapter
-from fw1394.transport.config import BusConfig
-from fw1394.transport.launch import LaunchedBus
+from fw1394.transport.host_adapter.server import adapter_pid, wait_adapter
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.supervision.launch import LaunchedBus
 
 PROGRAM = r"""
 #include <stdio.h>

@@ -27,8 +27,8 @@ from fw1394.boards.registry import BOARDS
 from fw1394.experiments.private_bus import PrivateBus
 from fw1394.experiments.regime import settle
 from fw1394.experiments.timing import collector_paused, cpu_split, pin
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.idle import default_idle
+from fw1394.host.bus_port import BusPort
+from fw1394.transport.media.idle import default_idle
 
 STEPS = (
     ("host: from the call to the request's send", "prepare"),

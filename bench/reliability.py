@@ -37,10 +37,10 @@ from typing import Any
 
 from fw1394.engine import ReadCompleted, TransactionFailed, WriteCompleted
 from fw1394.transport.bus_host import MAX_BLOCK_WRITE, BusHost
-from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig
-from fw1394.transport.launch import LaunchedBus
-from fw1394.transport.membership import Timing
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import Timing
+from fw1394.transport.supervision.launch import LaunchedBus
 
 QUADLETS = 65536 // 4  # the memory board's size
 TIMING = Timing(heartbeat=0.1, lease=2.0)

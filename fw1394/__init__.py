@@ -12,10 +12,11 @@ encoded from the description::
     4
 
 The transaction engine (:mod:`fw1394.engine`): sans-IO :class:`Requester` and
-:class:`Responder`. The virtual bus (:mod:`fw1394.transport`): :func:`open_bus`
-joins a running bus as a host and returns a :class:`BusPort`; a
-:class:`LaunchedBus` starts one. Boards (:mod:`fw1394.boards`): :func:`make_board`
-builds an emulated board of a registered kind. Traces (:mod:`fw1394.capture`):
+:class:`Responder`. The virtual bus (:mod:`fw1394.transport`): a
+:class:`LaunchedBus` starts one; :func:`open_bus` (of the host library,
+:mod:`fw1394.host`) joins a running bus as a host and returns a :class:`BusPort`.
+Boards (:mod:`fw1394.boards`): :func:`make_board` builds an emulated board of a
+registered kind. Traces (:mod:`fw1394.capture`):
 :class:`PcapngReader`, :class:`PcapReader`, :func:`write_trace`. Fuzzing
 (:mod:`fw1394.fuzz`): :func:`fw1394.fuzz.run` with :class:`fw1394.fuzz.Settings`.
 
@@ -63,9 +64,9 @@ _HOMES = {
     "ResponderPolicy": "fw1394.engine",
     # the virtual bus
     "BusConfig": "fw1394.transport",
-    "BusPort": "fw1394.transport",
+    "BusPort": "fw1394.host.bus_port",
     "LaunchedBus": "fw1394.transport",
-    "open_bus": "fw1394.transport",
+    "open_bus": "fw1394.host.bus_port",
     # boards
     "BOARDS": "fw1394.boards",
     "BoardKind": "fw1394.boards",
@@ -142,6 +143,7 @@ if TYPE_CHECKING:
         write_trace,
     )
     from fw1394.engine import Requester, Responder, ResponderPolicy
+    from fw1394.host.bus_port import BusPort, open_bus
     from fw1394.packets import (
         Ack,
         AckCode,
@@ -164,4 +166,4 @@ if TYPE_CHECKING:
         decode,
         encode,
     )
-    from fw1394.transport import BusConfig, BusPort, LaunchedBus, open_bus
+    from fw1394.transport import BusConfig, LaunchedBus

@@ -18,10 +18,10 @@ from pathlib import Path
 
 from bus_support import bus_name, wait_until_gone
 
-from fw1394.transport.adapter import adapter_pid, wait_adapter
-from fw1394.transport.config import BusConfig
-from fw1394.transport.launch import LaunchedBus
-from fw1394.transport.observe import BusView, watch
+from fw1394.transport.host_adapter.server import adapter_pid, wait_adapter
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.supervision.launch import LaunchedBus
+from fw1394.transport.supervision.observe import BusView, watch
 
 #: Node timing that tolerates a loaded machine.
 NODE_TIMING = ("--heartbeat", "0.1", "--lease", "2.0")

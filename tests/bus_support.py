@@ -10,9 +10,9 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from fw1394.transport.config import BusConfig
-from fw1394.transport.launch import LaunchedBus
-from fw1394.transport.observe import watch
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.supervision.launch import LaunchedBus
+from fw1394.transport.supervision.observe import watch
 from fw1394.transport.supervision.procs import process_alive
 from fw1394.transport.supervision.stop import stop as stop
 

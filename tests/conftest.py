@@ -3,73 +3,31 @@
 The test tree mirrors the package (``tests/<package>/``). Plain helpers shared by
 several packages' tests live beside this file, which pytest puts on the import
 path: ``bus_support`` (bus names, node processes, leftovers), ``fake_bus`` (the
-membership state machines on a fake medium) and ``polling`` (``wait_until``).
+membership state machines on a fake medium), ``polling`` (``wait_until``) and
+``spawn_guard`` (every way a test can start a process, recorded).
 Markers (``process``, ``netns``, ``tshark``, ``iverilog``, ``slow``) are
 registered in pyproject.toml; ``-m "not process"`` runs the in-process tiers.
 A test that starts a process without the ``process`` marker fails (see
-:func:`only_marked_tests_spawn`), so that tier really starts none.
+:func:`spawn_guard.only_marked_tests_spawn`), so that tier really starts none.
 """
 
 from __future__ import annotations
 
-import multiprocessing.process
-import os
 import re
 import subprocess
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import ExitStack
 from pathlib import Path
 
 import pytest
 from bus_support import LaunchBus, bus_name, stop, wait_until_gone
 
-from fw1394.transport.config import BusConfig
-from fw1394.transport.launch import LaunchedBus
+# The guard's fixture and hook, installed for the whole suite.
+from spawn_guard import only_marked_tests_spawn as only_marked_tests_spawn
+from spawn_guard import pytest_runtest_setup as pytest_runtest_setup
 
-# What the running test has started: commands of processes, filled by the
-# wrappers below from the start of its setup (module fixtures included) to the
-# end of its teardown.
-_spawned: list[str] = []
-
-
-def _recording(kind: str, start: Callable[..., object]) -> Callable[..., object]:
-    def recorded(*args: object, **kwargs: object) -> object:
-        # Popen's command follows self; the others' first argument says enough.
-        what = args[1:2] if kind == "subprocess" else args[:1]
-        _spawned.append(f"{kind}: {kwargs.get('args', what)!r}"[:200])
-        return start(*args, **kwargs)
-
-    return recorded
-
-
-# Every way the suite can start a process goes through one of these (asyncio's
-# subprocesses and concurrent.futures' pools included).
-subprocess.Popen.__init__ = _recording("subprocess", subprocess.Popen.__init__)  # type: ignore[method-assign,assignment]
-multiprocessing.process.BaseProcess.start = _recording(  # type: ignore[method-assign,assignment]
-    "multiprocessing", multiprocessing.process.BaseProcess.start
-)
-os.fork = _recording("fork", os.fork)  # type: ignore[assignment]
-os.system = _recording("system", os.system)  # type: ignore[assignment]
-
-
-@pytest.hookimpl(tryfirst=True)
-def pytest_runtest_setup(item: pytest.Item) -> None:
-    _spawned.clear()
-
-
-@pytest.fixture(autouse=True)
-def only_marked_tests_spawn(request: pytest.FixtureRequest) -> Iterator[None]:
-    """Fail a test that started a process but lacks the ``process`` marker.
-
-    ``-m "not process"`` promises a tier that starts no process; this keeps the
-    promise true as tests are added.
-    """
-    yield
-    if _spawned and request.node.get_closest_marker("process") is None:
-        pytest.fail(
-            "started a process without @pytest.mark.process: " + "; ".join(_spawned[:3]),
-            pytrace=False,
-        )
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.supervision.launch import LaunchedBus
 
 
 @pytest.fixture

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 from fw1394.packets.nodeid import BROADCAST_PHY
-from fw1394.transport.membership import Membership, Timing
-from fw1394.transport.wire import EVERY_MEMBER, FrameHeader, MemberInfo
+from fw1394.transport.sansio.membership import Membership, Timing
+from fw1394.transport.sansio.wire import EVERY_MEMBER, FrameHeader, MemberInfo
 
 # Fast enough that a test runs seconds of bus time in a few thousand steps.
 FAKE_TIMING = Timing(heartbeat=0.1, lease=0.5, join_retry=0.05, settle=0.002, self_id_timeout=0.5)

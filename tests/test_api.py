@@ -157,7 +157,7 @@ def test_doc_examples_import_only_the_public_api() -> None:
 @pytest.mark.parametrize(
     "code",
     [
-        "from fw1394.transport.bus_port import BusPort",
+        "from fw1394.host.bus_port import BusPort",
         "import fw1394.packets.fast",
         "from fw1394.packets import decode_header",
     ],

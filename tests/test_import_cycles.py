@@ -89,7 +89,7 @@ def test_the_search_finds_a_cycle_through_a_function_level_import() -> None:
 
 def test_grimp_counts_function_level_and_type_checking_imports(graph: grimp.ImportGraph) -> None:
     # fw1394.cli.bus imports cli.lsnodes inside a function only, and
-    # fw1394.transport.adapter_services names the bus host only for typing.
+    # fw1394.transport.host_adapter.services names the bus host only for typing.
     assert "fw1394.cli.lsnodes" in graph.find_modules_directly_imported_by("fw1394.cli.bus")
-    imported = graph.find_modules_directly_imported_by("fw1394.transport.adapter_services")
+    imported = graph.find_modules_directly_imported_by("fw1394.transport.host_adapter.services")
     assert "fw1394.transport.bus_host" in imported

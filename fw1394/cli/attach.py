@@ -19,8 +19,8 @@ from fw1394.cli.common import CliError
 
 if TYPE_CHECKING:
     from fw1394.host.adapter_port import AdapterPort
-    from fw1394.transport.bus_port import BusPort
-    from fw1394.transport.wire import MemberInfo
+    from fw1394.host.bus_port import BusPort
+    from fw1394.transport.sansio.wire import MemberInfo
 
 #: Longest wait for one reply from the adapter: its own transaction timeouts (1 s ack,
 #: 1 s split, three busy retries) end every transaction before.

@@ -132,11 +132,11 @@ def _settings(args: argparse.Namespace) -> Any:
 def run_bench_command(args: argparse.Namespace) -> int:
     from fw1394.boards import BOARDS
     from fw1394.experiments.connect import TargetUnavailable, parse_target
-    from fw1394.experiments.phase_progress import Progress
     from fw1394.experiments.report_text import render
     from fw1394.experiments.results import digest
     from fw1394.experiments.run import run_bench
     from fw1394.experiments.timing import MeasurementError
+    from fw1394.progress import Progress
     from fw1394.transport.eth1394_addresses import AddressRefusedError
 
     settings = _settings(args)

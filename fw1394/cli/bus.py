@@ -19,14 +19,14 @@ from fw1394.node.description import (
     add_node_options,
     member_arguments,
 )
-from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig
-from fw1394.transport.membership import Timing
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import Timing
+from fw1394.transport.sansio.wire import MAX_MEMBERS, MemberInfo
 from fw1394.transport.supervision.procs import pid_namespace
-from fw1394.transport.wire import MAX_MEMBERS, MemberInfo
 
 if TYPE_CHECKING:
-    from fw1394.transport.bus_port import BusPort
+    from fw1394.host.bus_port import BusPort
 
 T = TypeVar("T")
 __all__ = ["add_bus_options", "add_member_options", "bus_config", "host_port", "register"]
@@ -78,8 +78,8 @@ def _checked(make: Callable[[argparse.Namespace], T], args: argparse.Namespace) 
 
 def host_port(args: argparse.Namespace) -> BusPort:
     """A host port on the bus the options name, waiting ``--timeout`` per transaction."""
-    from fw1394.transport.bus_port import BusPort
-    from fw1394.transport.seal import BusKeyError
+    from fw1394.host.bus_port import BusPort
+    from fw1394.transport.supervision.bus_key import BusKeyError
 
     config = bus_config(args)
     try:
@@ -204,7 +204,7 @@ def _bus_handler(action: str) -> Any:
     handler = handlers[action]
 
     def checked(args: argparse.Namespace) -> int:
-        from fw1394.transport.runtime import RuntimeRootError
+        from fw1394.transport.supervision.runtime import RuntimeRootError
 
         try:
             return handler(args)
@@ -216,9 +216,9 @@ def _bus_handler(action: str) -> Any:
 
 # -- handlers -----------------------------------------------------------------------------
 def bus_up(args: argparse.Namespace) -> int:
-    from fw1394.transport.adapter import wait_adapter
-    from fw1394.transport.launch import AlreadyUpError, LaunchedBus, LaunchError
-    from fw1394.transport.runtime import prepare
+    from fw1394.transport.host_adapter.server import wait_adapter
+    from fw1394.transport.supervision.launch import AlreadyUpError, LaunchedBus, LaunchError
+    from fw1394.transport.supervision.runtime import prepare
 
     config = bus_config(args)
     if not 1 <= args.nodes <= MAX_MEMBERS:
@@ -239,11 +239,11 @@ def bus_up(args: argparse.Namespace) -> int:
         raise CliError(str(error)) from None
     node_arguments += max(ethernet, key=len)  # kinds without an Ethernet side ignore them
     node_arguments += defect_arguments(args)  # planted bugs for the fuzzer
-    if args.nodes < MAX_MEMBERS:  # the bus's shared host node (fw1394.transport.adapter)
+    if args.nodes < MAX_MEMBERS:  # the bus's shared host node (transport.host_adapter)
         node_arguments += ("--adapter",)
     timing(args)
     faults(args)
-    from fw1394.transport.seal import new_key
+    from fw1394.transport.supervision.bus_key import new_key
 
     log = prepare(config.name) / "bus.log"
     bus = LaunchedBus(
@@ -275,7 +275,7 @@ def bus_up(args: argparse.Namespace) -> int:
 
 def bus_key_of(config: BusConfig) -> bytes | None:
     """The key members of ``config``'s bus use here; a bad key file is a CLI error."""
-    from fw1394.transport.seal import BusKeyError, key_for
+    from fw1394.transport.supervision.bus_key import BusKeyError, key_for
 
     try:
         return key_for(config)
@@ -294,8 +294,13 @@ def labelled_rows(config: BusConfig, view: Any) -> list[dict[str, Any]]:
 
 
 def bus_status(args: argparse.Namespace) -> int:
-    from fw1394.transport.observe import watch
-    from fw1394.transport.runtime import bus_dir, read_members, read_nodes, supervisor_alive
+    from fw1394.transport.supervision.observe import watch
+    from fw1394.transport.supervision.runtime import (
+        bus_dir,
+        read_members,
+        read_nodes,
+        supervisor_alive,
+    )
 
     config = bus_config(args)
     keyed = bus_key_of(config) is not None
@@ -357,7 +362,7 @@ def _status_without_key(name: str, generation: int, as_json: bool) -> int:
 
 
 def bus_reset(args: argparse.Namespace) -> int:
-    from fw1394.transport.observe import request_reset, watch
+    from fw1394.transport.supervision.observe import request_reset, watch
 
     config = bus_config(args)
     bus_key_of(config)
@@ -378,8 +383,8 @@ def bus_reset(args: argparse.Namespace) -> int:
 
 
 def bus_down(args: argparse.Namespace) -> int:
-    from fw1394.transport.observe import watch
-    from fw1394.transport.runtime import (
+    from fw1394.transport.supervision.observe import watch
+    from fw1394.transport.supervision.runtime import (
         bus_dir,
         read_members,
         read_nodes,

@@ -211,8 +211,8 @@ def _open_tap(bus: str) -> BusTap:
     """A tap on ``bus``, once its coordinator has been heard (no bus: a one-line error)."""
     try:
         from fw1394.capture.formats.bus_tap import BusTap
-        from fw1394.transport.observe import watch
-        from fw1394.transport.runtime import bus_dir, supervisor_alive
+        from fw1394.transport.supervision.observe import watch
+        from fw1394.transport.supervision.runtime import bus_dir, supervisor_alive
     except ImportError as error:
         raise CliError(f"virtual bus capture is not available: {error}") from None
     try:

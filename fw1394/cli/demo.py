@@ -105,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
     from fw1394.demo import run_demo
     from fw1394.demo.report import plot, summary, traffic
     from fw1394.transport.bus_host import BusError, TransactionError
-    from fw1394.transport.launch import LaunchError
+    from fw1394.transport.supervision.launch import LaunchError
 
     live = sys.stderr.isatty() and not args.json
     if not args.json:

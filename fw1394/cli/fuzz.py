@@ -20,6 +20,7 @@ examples:
   fw1394 fuzz run udp:127.0.0.1:1394 --eth1394 --model qla1 --duration 60
   fw1394 fuzz run udp:127.0.0.1:11394 --model memory --restart ./start-node.sh --duration 60
   fw1394 fuzz run inproc:memory --jobs 2 --max-cases 100000 --seed 3
+  fw1394 fuzz run inproc:qla1 --oracle jhu --defect hw-version-swapped --plot run.png
   fw1394 fuzz replay fuzz-findings                       do the saved findings still happen?
   fw1394 fuzz replay fuzz-findings --restart ./start-node.sh
   fw1394 fuzz defects qla1                               the bugs --defect can plant
@@ -108,8 +109,10 @@ def add_run_options(run: argparse.ArgumentParser) -> None:
         "--duration",
         type=float,
         default=None,
-        help="stop fuzzing after S seconds; shrinking the findings comes after it, up to "
-        "--shrink-budget replays each (0: none, the run stays inside S)",
+        metavar="S",
+        help="the whole run, shrinking included, ends within S seconds (but for a replay "
+        "begun before): fuzzing stops at S, or at 80%% of S once there are findings to "
+        "shrink, and shrinking stops at S, the findings left kept as found",
     )
     limits.add_argument(
         "--engine",
@@ -171,7 +174,12 @@ def add_run_options(run: argparse.ArgumentParser) -> None:
     )
     out = run.add_argument_group("inputs and findings")
     out.add_argument("--corpus", action="append", default=[], metavar="FILE", help="seeds")
-    out.add_argument("--findings", default="fuzz-findings", metavar="DIR", help="reproducers")
+    out.add_argument(
+        "--findings",
+        default="fuzz-findings",
+        metavar="DIR",
+        help="reproducers, each written when found (a stopped or killed run keeps them)",
+    )
     saved = out.add_mutually_exclusive_group()
     saved.add_argument("--force", action="store_true", help="replace the findings already in DIR")
     saved.add_argument(
@@ -181,10 +189,17 @@ def add_run_options(run: argparse.ArgumentParser) -> None:
         "--shrink-budget",
         type=integer,
         default=300,
-        help="replays per finding when shrinking, after --duration or --max-cases (default 300)",
+        help="replays per finding when shrinking (default 300; 0: no shrinking); with "
+        "--duration, shrinking also stops when the duration is over",
     )
     out.add_argument("--history", type=integer, default=512, help="packets kept per finding")
     out.add_argument("--json", action="store_true", help="print the report as JSON")
+    out.add_argument(
+        "--plot",
+        default=None,
+        metavar="FILE",
+        help="draw findings and coverage over the run into FILE (.png, .svg, .pdf; one job)",
+    )
     out.add_argument(
         "--progress",
         action=argparse.BooleanOptionalAction,
@@ -230,7 +245,8 @@ def settings_of(args: argparse.Namespace) -> Any:
 
 def run_campaign(args: argparse.Namespace) -> int:
     from fw1394.fuzz import findings, workers
-    from fw1394.fuzz.progress import Progress
+    from fw1394.fuzz.campaign import terminable
+    from fw1394.progress import Progress
 
     settings = settings_of(args)
     directory = Path(args.findings)
@@ -249,27 +265,51 @@ def run_campaign(args: argparse.Namespace) -> int:
             from fw1394.fuzz import hypo
         except ImportError as error:
             raise CliError(f"the hypothesis engine needs the {error.name} package") from None
-        report = _guarded(lambda: hypo.run(settings))
-    else:
-        show = sys.stderr.isatty() if args.progress is None else args.progress
-        show = show and args.jobs == 1 and args.cluster is None
-        progress = Progress(settings.max_cases, settings.duration) if show else None
-        if args.cluster is not None:
-            if args.restart is not None:
-                raise CliError("--cluster runs without --restart")
+    if args.cluster is not None and args.restart is not None:
+        raise CliError("--cluster runs without --restart")
+    if args.plot is not None:
+        from fw1394.capture.views.trace_plots import PlotError, check_plot_path
+
+        if args.jobs != 1 or args.cluster is not None or args.engine == "hypothesis":
+            raise CliError("--plot draws a campaign of one job of the fast engine")
+        try:
+            check_plot_path(args.plot)
+        except PlotError as error:
+            raise CliError(str(error)) from None
+    try:
+        store = findings.Store(directory, earlier)
+    except OSError as error:
+        raise CliError(f"cannot save findings in {directory}: {error.strerror or error}") from None
+    with terminable():
+        if args.engine == "hypothesis":
+            report = _guarded(lambda: hypo.run(settings))
+        elif args.cluster is not None:
             from fw1394.fuzz import cluster
 
             jobs = args.jobs if args.jobs > 1 else None
             report = _guarded(lambda: cluster.run(settings, args.cluster, jobs=jobs))
         else:
+            show = sys.stderr.isatty() if args.progress is None else args.progress
+            show = show and args.jobs == 1
+            progress = Progress() if show else None
             report = _guarded(
-                lambda: workers.run(settings, args.jobs, restart=args.restart, progress=progress)
+                lambda: workers.run(
+                    settings, args.jobs, restart=args.restart, progress=progress, store=store
+                )
             )
     try:
-        findings.save(directory, findings.merged(earlier, report.findings))
-        (directory / "report.json").write_text(json.dumps(report.to_json(), indent=2) + "\n")
+        for finding in report.findings:
+            store.put(finding)
+        store.report(report.to_json())
     except OSError as error:
         raise CliError(f"cannot save findings in {directory}: {error.strerror or error}") from None
+    if args.plot is not None:
+        from fw1394.fuzz.plot import plot_campaign
+
+        try:
+            plot_campaign(report, Path(args.plot))
+        except PlotError as error:
+            raise CliError(str(error)) from None
     if args.json:
         print(json.dumps(report.to_json()))
     else:

@@ -164,10 +164,10 @@ def _named(row: dict[str, Any], key: str) -> str:
 
 def member_labels(config: Any, generation: int, members: Sequence[Any]) -> list[dict[str, Any]]:
     """For ``bus status``: each member's board kind, generation and role (the adapter named)."""
-    from fw1394.transport.adapter import adapter_pid
-    from fw1394.transport.runtime import bus_dir
+    from fw1394.transport.host_adapter.server import adapter_pid
+    from fw1394.transport.sansio.wire import MemberInfo
     from fw1394.transport.supervision.procs import pid_namespace
-    from fw1394.transport.wire import MemberInfo
+    from fw1394.transport.supervision.runtime import bus_dir
 
     here = MemberInfo(0, 0, address=config.interface, pid_namespace=pid_namespace())
     adapter = adapter_pid(bus_dir(config.name))

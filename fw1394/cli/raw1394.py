@@ -16,7 +16,7 @@ import shutil
 from typing import Any
 
 from fw1394.cli.common import CliError
-from fw1394.transport.config import DEFAULT_BUS
+from fw1394.transport.sansio.config import DEFAULT_BUS
 
 RUN_EPILOG = """\
 examples:

@@ -191,8 +191,8 @@ def run(args: argparse.Namespace) -> int:
 def port_kind(args: argparse.Namespace, phy: int) -> str | None:
     """The board kind of node ``phy`` of bus ``--name`` when it runs here."""
     from fw1394.cli.lsnodes import member_labels
-    from fw1394.transport.config import BusConfig
-    from fw1394.transport.observe import watch
+    from fw1394.transport.sansio.config import BusConfig
+    from fw1394.transport.supervision.observe import watch
 
     config = BusConfig(args.name, interface=args.interface, ttl=args.ttl)
     view = watch(config, 1.0)

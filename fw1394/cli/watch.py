@@ -15,7 +15,7 @@ from fw1394.cli.common import CliError, integer
 
 if TYPE_CHECKING:
     from fw1394.host.adapter_port import AdapterPort
-    from fw1394.transport.bus_port import BusPort
+    from fw1394.host.bus_port import BusPort
     from fw1394.watch.readings import BoardReading
     from fw1394.watch.sampler import WatchedBoard
 

@@ -25,11 +25,11 @@ from fw1394.demo.processes import children, per_cycle, snapshot, wait_idle
 from fw1394.engine import FailureReason
 from fw1394.engine.space import TICKS_PER_SECOND
 from fw1394.host import Board, MultiBoard, PdGains, PositionLoop
+from fw1394.host.bus_port import BusPort
 from fw1394.transport.bus_host import TransactionError
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.config import BusConfig
-from fw1394.transport.idle import ENVIRONMENT, IdleStrategy
-from fw1394.transport.launch import LaunchedBus
+from fw1394.transport.media.idle import ENVIRONMENT, IdleStrategy
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.supervision.launch import LaunchedBus
 from fw1394.transport.supervision.stop import stop
 
 #: The robot of thesis section 1.2: actuation unit (7 axes) and Z-Theta stage (4).
@@ -101,7 +101,7 @@ def run_demo(
     With ``capture``, a ``fw1394 capture`` process taps the bus into that file
     for the whole run (a separate process, so the servo loop keeps its core).
     ``idle`` is how the host and the nodes wait for frames
-    (:mod:`fw1394.transport.idle`; default ``FW1394_IDLE``, else adaptive).
+    (:mod:`fw1394.transport.media.idle`; default ``FW1394_IDLE``, else adaptive).
     """
     config = BusConfig(name=bus_name or f"demo-{os.getpid()}")
     result = DemoResult(bus_name=config.name)

@@ -21,6 +21,7 @@ from typing import Final, NamedTuple
 
 from fw1394.engine.events import FailureReason
 from fw1394.packets import AckCode, RCode, Retry, TCode
+from fw1394.packets.nodeid import BROADCAST_PHY, LOCAL_BUS, bus_of, phy_of
 from fw1394.packets.tcodes import RESPONSE_OF_REQUEST
 
 
@@ -66,6 +67,32 @@ class Screen(Enum):
     unsupported_acked = "unsupported_acked"
     #: Busy injected for a test or a fault: refused, to be retried.
     injected_busy = "injected_busy"
+
+
+class Addressee(Enum):
+    """Whom a request's destination ID names, as seen by one node."""
+
+    this_node = "this_node"
+    broadcast = "broadcast"
+    #: Another node, or this node's physical ID on another bus (Screen.not_addressed).
+    other = "other"
+
+
+def addressee(destination_id: int, node_id: int, ignore_bus_id: bool) -> Addressee:
+    """Whom ``destination_id`` names for the node ``node_id``: the address screen.
+
+    The bus part must name the local bus or this node's bus, unless the node
+    ignores it (``ignore_bus_id``, as the thesis and JHU boards do). Physical ID
+    63 is everyone's (a broadcast), whatever this node's own physical ID.
+    """
+    phy = phy_of(destination_id)
+    broadcast = phy == BROADCAST_PHY
+    if not broadcast and phy != phy_of(node_id):
+        return Addressee.other
+    bus = bus_of(destination_id)
+    if not (bus == LOCAL_BUS or ignore_bus_id or bus == bus_of(node_id)):
+        return Addressee.other
+    return Addressee.broadcast if broadcast else Addressee.this_node
 
 
 SCREENS: Final[dict[Screen, Answer]] = {

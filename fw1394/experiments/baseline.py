@@ -18,10 +18,10 @@ import subprocess
 import sys
 from dataclasses import dataclass
 
-from fw1394.experiments.phase_progress import Progress
 from fw1394.experiments.summary import Summary, summarize
 from fw1394.experiments.timing import TargetError, pin, time_calls
-from fw1394.transport.idle import Waiter, default_idle
+from fw1394.progress import Progress
+from fw1394.transport.media.idle import Waiter, default_idle
 from fw1394.transport.supervision.stop import stop
 
 REQUEST_BYTES = 40
@@ -33,7 +33,7 @@ RECEIVE_TIMEOUT_S = 1.0
 # bench (PR_SET_PDEATHSIG) however the bench ends.
 ECHO = """
 import socket, sys
-from fw1394.transport.idle import Waiter, default_idle
+from fw1394.transport.media.idle import Waiter, default_idle
 from fw1394.transport.supervision.procs import die_with_parent
 die_with_parent(int(sys.argv[1]))
 peer = ("127.0.0.1", int(sys.argv[2]))

@@ -21,10 +21,10 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 from fw1394.experiments.timing import TargetError
+from fw1394.host.bus_port import BusPort
 from fw1394.jhu.client import EthUdpClient
 from fw1394.transport.bus_host import BusError, TransactionError
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.runtime import bus_dir, read_nodes
+from fw1394.transport.supervision.runtime import bus_dir, read_nodes
 
 QUADLET_OFFSET = 0
 BLOCK_OFFSET = 0

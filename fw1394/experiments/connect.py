@@ -17,17 +17,17 @@ from dataclasses import dataclass
 from fw1394.errors import BusUnreachable
 from fw1394.experiments.bench_targets import BusTarget, Eth1394Target, Target, bus_node_board
 from fw1394.experiments.private_bus import SETTLE_S, TIMING, TRANSACTION_TIMEOUT_S, PrivateBus
+from fw1394.host.bus_port import BusPort
 from fw1394.jhu.client import EthUdpClient
 from fw1394.jhu.scan import start
 from fw1394.transport.bus_host import BusError
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.config import BusConfig, parse_bus_node
 from fw1394.transport.eth1394_addresses import (
     AddressRefusedError,
     Endpoint,
     parse_endpoint,
     require_loopback,
 )
+from fw1394.transport.sansio.config import BusConfig, parse_bus_node
 
 VIRTUAL = "virtual"
 

@@ -24,11 +24,11 @@ from fw1394.experiments.baseline import stop_process
 from fw1394.experiments.timing import TargetError, pin, time_calls
 from fw1394.packets import AckCode, QuadletReadRequest, QuadletReadResponse
 from fw1394.packets.fast import encode_packet
-from fw1394.transport.config import BusConfig
-from fw1394.transport.idle import default_idle
-from fw1394.transport.medium import Medium
+from fw1394.transport.media.idle import default_idle
+from fw1394.transport.media.udp import Medium
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.wire import AckPayload, FrameHeader, FrameKind, ack_byte
 from fw1394.transport.supervision.procs import die_with_parent
-from fw1394.transport.wire import AckPayload, FrameHeader, FrameKind, ack_byte
 
 #: The two ends' member IDs and physical IDs on their own bus.
 HOST, NODE = (101, 1), (102, 2)

@@ -10,7 +10,6 @@ from typing import Protocol
 
 from fw1394.experiments.baseline import Baseline, merged
 from fw1394.experiments.bench_targets import BusTarget, Target
-from fw1394.experiments.phase_progress import Progress
 from fw1394.experiments.private_bus import PrivateBus
 from fw1394.experiments.regime import Regime, settle, switches
 from fw1394.experiments.timing import (
@@ -20,6 +19,7 @@ from fw1394.experiments.timing import (
     time_calls,
     time_one,
 )
+from fw1394.progress import Progress
 
 
 @dataclass(frozen=True)

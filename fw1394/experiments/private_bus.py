@@ -19,12 +19,12 @@ import time
 from pathlib import Path
 
 from fw1394.experiments.timing import pin
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.config import BusConfig
-from fw1394.transport.launch import LaunchedBus
-from fw1394.transport.membership import Timing
+from fw1394.host.bus_port import BusPort
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import Timing
+from fw1394.transport.supervision.launch import LaunchedBus
 from fw1394.transport.supervision.stop import stop
-from fw1394.transport.supervisor import node_command
+from fw1394.transport.supervision.supervisor import node_command
 
 TIMING = Timing(heartbeat=0.2, lease=3.0)
 TIMING_ARGS = ("--heartbeat", "0.2", "--lease", "3.0")

@@ -2,7 +2,7 @@
 
 On a virtual machine a sleeping process takes about 20 µs to wake, so a
 transaction between processes that poll costs half of one between processes
-that sleep. Adaptive members (:mod:`fw1394.transport.idle`) poll or not
+that sleep. Adaptive members (:mod:`fw1394.transport.media.idle`) poll or not
 depending on what else is runnable, and where the scheduler puts the two ends
 decides whether they poll on one CPU or on two: two rounds a few milliseconds
 apart can run in different regimes, and the ratio of their medians then
@@ -24,7 +24,7 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from fw1394.transport.idle import IdleStrategy, default_idle
+from fw1394.transport.media.idle import IdleStrategy, default_idle
 
 #: Two halves whose wake-ups or preemptions per call differ by more than this ran
 #: in different regimes.
@@ -43,7 +43,7 @@ def settle_time(strategy: IdleStrategy) -> float:
     An adaptive process polls for its window after its last frame. A half that
     starts while the other half still polls sees more runnable tasks than
     cores, and its own adaptive members then sleep instead of polling until
-    they next look (:func:`~fw1394.transport.idle.cores_enough`): the two
+    they next look (:func:`~fw1394.transport.media.idle.cores_enough`): the two
     halves of the ratio would run in different regimes because of the order
     they ran in. Members that always block or always poll have nothing to
     wait for.

@@ -20,15 +20,15 @@ from fw1394.experiments.measurements import (
     measure_quadlets,
     measure_scale,
 )
-from fw1394.experiments.phase_progress import Progress
 from fw1394.experiments.private_bus import PrivateBus
 from fw1394.experiments.regime import Regime, settle, settle_time, switches
 from fw1394.experiments.run_settings import Settings
 from fw1394.experiments.summary import summarize
 from fw1394.experiments.timing import SWITCH_WARMUP, cpu_split, pin
-from fw1394.transport.config import BusConfig
-from fw1394.transport.idle import default_idle
-from fw1394.transport.media import medium_name
+from fw1394.progress import Progress
+from fw1394.transport.media.choice import medium_name
+from fw1394.transport.media.idle import default_idle
+from fw1394.transport.sansio.config import BusConfig
 from fw1394.version import __version__
 
 #: Rounds the baseline and the quadlet figures alternate in.

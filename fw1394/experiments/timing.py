@@ -9,7 +9,7 @@ from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 
 from fw1394.errors import Error
-from fw1394.experiments.phase_progress import Progress
+from fw1394.progress import Progress
 
 #: Give up on a measurement when more than this share of its transactions fail.
 MAX_FAILURE_SHARE = 0.05

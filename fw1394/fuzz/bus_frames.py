@@ -16,7 +16,7 @@ import random
 
 from fw1394.packets import QuadletReadRequest, QuadletWriteRequest, encode
 from fw1394.packets.nodeid import node_id
-from fw1394.transport.wire import (
+from fw1394.transport.sansio.wire import (
     ACK_PAYLOAD,
     EVERY_MEMBER,
     JOIN_TARGET,

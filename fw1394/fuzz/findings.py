@@ -9,7 +9,9 @@ possible. ``fw1394 fuzz replay DIR`` sends the streams again.
 from __future__ import annotations
 
 import json
+import os
 import re
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -151,15 +153,80 @@ def save(directory: Path, findings: list[Finding]) -> list[Path]:
     The reproducers already in the directory are removed first, so it holds
     exactly ``findings`` (merge them first with :func:`merged` to keep them).
     """
-    directory.mkdir(parents=True, exist_ok=True)
-    for old in directory.glob(_PATTERN):
-        old.unlink()
-    paths = []
-    for index, finding in enumerate(findings, 1):
-        path = directory / file_name(index, finding)
-        path.write_text(json.dumps(finding.to_json(), indent=2) + "\n")
-        paths.append(path)
-    return paths
+    store = Store(directory)
+    for finding in findings:
+        store.put(finding)
+    return store.paths()
+
+
+class Store:
+    """A findings directory kept true while a campaign runs.
+
+    Each finding is written when it is found and again when it is shrunk, the
+    report whenever it changes; every file is replaced atomically (written
+    aside, then renamed), so a campaign stopped or killed at any moment leaves
+    a directory of whole files holding everything found so far. ``earlier``
+    findings (``--merge``) are written first and keep their place; a finding
+    of the run replaces an earlier one of the same signature unless only the
+    earlier one is shrunk.
+    """
+
+    def __init__(self, directory: Path, earlier: Sequence[Finding] = ()) -> None:
+        self.directory = directory
+        self._earlier_findings = list(earlier)
+        self._earlier = {finding.key for finding in earlier}
+        self._paths: dict[tuple[str, str], Path] = {}
+        self._kept: dict[tuple[str, str], Finding] = {}
+        self._opened = False
+
+    def _open(self) -> None:
+        # Nothing is touched before the run has something to say (a target that
+        # cannot be reached leaves the directory as it was).
+        if self._opened:
+            return
+        self._opened = True
+        self.directory.mkdir(parents=True, exist_ok=True)
+        for old in self.directory.glob(_PATTERN):
+            old.unlink()
+        for finding in self._earlier_findings:
+            self.put(finding)
+
+    def put(self, finding: Finding) -> Path:
+        """Write ``finding`` (a new signature gets the next number); its file."""
+        self._open()
+        key = finding.key
+        old = self._kept.get(key)
+        if old is not None and key in self._earlier and old.shrunk and not finding.shrunk:
+            return self._paths[key]
+        path = self._paths.get(key)
+        if path is None:
+            path = self.directory / file_name(len(self._paths) + 1, finding)
+            self._paths[key] = path
+        self._kept[key] = finding
+        write_atomically(path, json.dumps(finding.to_json(), indent=2) + "\n")
+        return path
+
+    def report(self, data: dict[str, Any]) -> None:
+        """Write ``report.json``."""
+        self._open()
+        write_atomically(self.directory / "report.json", json.dumps(data, indent=2) + "\n")
+
+    def paths(self) -> list[Path]:
+        return list(self._paths.values())
+
+
+def write_atomically(path: Path, text: str) -> None:
+    """Replace ``path`` by a file holding ``text``: readers see the old file or the new one."""
+    aside = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        with open(aside, "w", encoding="utf-8") as file:
+            file.write(text)
+            file.flush()
+            os.fsync(file.fileno())
+        os.replace(aside, path)
+    except BaseException:
+        aside.unlink(missing_ok=True)
+        raise
 
 
 def load(path: Path) -> list[tuple[Path, Finding]]:

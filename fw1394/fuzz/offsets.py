@@ -126,3 +126,21 @@ def aliased(offset: int, high: int) -> int:
     """``offset`` with bits above the 16 a JHU board decodes replaced by ``high``."""
     low = offset & ((1 << DECODED_BITS) - 1)
     return (high << DECODED_BITS | low) & OFFSET_MASK
+
+
+#: Mismatches whose cause lies in what the addressed register does, so a finding of
+#: one is kept per register (:func:`region`); the others are the packet's own.
+REGIONAL_FIELDS = frozenset({"ack", "rcode", "quadlet_data", "data", "data_length"})
+
+
+def region(kind: str | None, offset: int | None) -> str:
+    """Where ``offset`` lands on a board of ``kind``, to tell root causes apart: the
+    register it reaches through the board's decoding (an element of an array is its
+    array), ``unmapped`` for an address that holds nothing, ``""`` when there is no
+    map to say (no model, or a packet without an offset)."""
+    entry = BOARDS.get(kind or "")
+    if entry is None or entry.registers is None or offset is None:
+        return ""
+    registers = entry.registers
+    placed = registers.at(registers.decode(offset & OFFSET_MASK))
+    return "unmapped" if placed is None else placed.register.name

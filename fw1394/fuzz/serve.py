@@ -33,7 +33,7 @@ from fw1394.packets.eth1394 import (
 )
 from fw1394.packets.fast import encode_packet
 from fw1394.transport.link import ResponderLink
-from fw1394.transport.wire import HEADER_SIZE, FrameError, FrameHeader, parse_header
+from fw1394.transport.sansio.wire import HEADER_SIZE, FrameError, FrameHeader, parse_header
 
 MAX_DATAGRAM = 65_535
 #: The receive timeout: how often the loop looks at its deadline.

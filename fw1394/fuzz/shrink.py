@@ -11,6 +11,7 @@ only if it is smaller (shorter, then fewer nonzero bytes), so shrinking ends.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Iterator
 from dataclasses import replace
 
@@ -30,28 +31,60 @@ class _Budget:
         self.left = replays
 
 
-def shrink(finding: Finding, replay: Replayer, budget: int) -> Finding:
-    """``finding`` with its stream shrunk as far as ``budget`` replays allow."""
+class _OutOfTime(Exception):
+    """The deadline passed: shrinking stops with the smallest stream found so far."""
+
+
+def shrink(
+    finding: Finding, replay: Replayer, budget: int, *, deadline: float | None = None
+) -> Finding:
+    """``finding`` with its stream shrunk as far as ``budget`` replays allow, and
+    (``deadline``, a :func:`time.monotonic` time) as far as time allows: each
+    stream kept reproduced the finding, so one cut short is still a reproducer."""
     if budget <= 0:
         return finding
     spend = _Budget(budget)
+    best = list(finding.stream)
 
     def still(stream: list[Entry]) -> bool:
+        nonlocal best
         if spend.left <= 0 or not any(e.role == "case" for e in stream):
             return False
+        if deadline is not None and time.monotonic() >= deadline:
+            raise _OutOfTime
         spend.left -= 1
-        return finding.key in replay(stream)
+        if finding.key not in replay(stream):
+            return False
+        if _smaller(stream, best):
+            best = list(stream)
+        return True
 
     stream = list(finding.stream)
-    if not still(stream):
-        return replace(finding, reproduced=False)
-    stream = _last_batch(stream, still)
-    stream = _cut_tail(stream, still)
-    stream = _ddmin(stream, still)
-    for index in reversed(range(len(stream))):
-        if stream[index].role == "case":
-            stream[index] = _simplest(stream, index, still)
+    try:
+        if not still(stream):
+            return replace(finding, reproduced=False)
+    except _OutOfTime:
+        return finding
+    try:
+        stream = _last_batch(stream, still)
+        stream = _cut_tail(stream, still)
+        stream = _ddmin(stream, still)
+        for index in reversed(range(len(stream))):
+            if stream[index].role == "case":
+                stream[index] = _simplest(stream, index, still)
+    except _OutOfTime:
+        stream = best
     return replace(finding, stream=stream, reproduced=True, shrunk=True)
+
+
+def _smaller(stream: list[Entry], than: list[Entry]) -> bool:
+    """Fewer packets, then fewer bytes, then fewer nonzero bytes."""
+
+    def measure(entries: list[Entry]) -> tuple[int, int, int]:
+        sizes = [_size(e.raw) for e in entries]
+        return (len(entries), sum(s[0] for s in sizes), sum(s[1] for s in sizes))
+
+    return measure(stream) < measure(than)
 
 
 def _last_batch(stream: list[Entry], still: Callable[[list[Entry]], bool]) -> list[Entry]:

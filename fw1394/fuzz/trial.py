@@ -19,7 +19,7 @@ from fw1394.fuzz.contract import ack_name, family, silence_reason
 from fw1394.fuzz.coverage import outcome
 from fw1394.fuzz.judge import Violation, describe, difference, is_silent, visible
 from fw1394.fuzz.learned import LearnedRegisters
-from fw1394.fuzz.offsets import OffsetModel
+from fw1394.fuzz.offsets import REGIONAL_FIELDS, OffsetModel, region
 from fw1394.fuzz.reference import Certainty, Reference
 from fw1394.fuzz.target import Observation, Observed, Target, TargetCrash, Wire
 from fw1394.fuzz.tunnel import tlabel_of
@@ -32,7 +32,7 @@ from fw1394.packets import (
     QuadletWriteRequest,
     Request,
 )
-from fw1394.packets.fast import encode_packet
+from fw1394.packets.fast import decode_sound, encode_packet
 from fw1394.packets.nodeid import BROADCAST_PHY
 
 #: Bytes a read-back of a block write asks for at most.
@@ -263,7 +263,9 @@ class Trial:
             return []
         self.checks["interface"] += 1
         return [
-            Violation("interface", line.split(":")[0], "the PHY-link interface rules kept", line)
+            Violation(
+                "interface", line.partition(": ")[0], "the PHY-link interface rules kept", line
+            )
             for line in take()
         ]
 
@@ -331,11 +333,18 @@ class Trial:
         if field is None:
             return None
         if sent.role == "probe":
-            return Violation("reply", f"read:{field}", describe(shown), describe(seen))
+            where = self._region(sent.wire.packet, field, shown, seen)
+            field = _regional(field) if where else field
+            return Violation("reply", f"read{where}:{field}", describe(shown), describe(seen))
         where = _offset_text(sent.wire.packet)
+        # A write the node should have dropped or refused that changed a register is
+        # a defect of packet handling, whichever register it hit: one finding.
+        register = ""
+        if self._write_status == "accepted":
+            register = self._region(sent.wire.packet, field, shown, seen)
         return Violation(
             "state",
-            f"{self._write_status}-write:{field}",
+            f"{self._write_status}-write{register}:{_regional(field) if register else field}",
             f"read-back{where}: {describe(shown)}",
             f"read-back{where}: {describe(seen)}",
         )
@@ -387,9 +396,12 @@ class Trial:
         field = difference(shown, seen, certainty, self.target.visibility, **self._options())
         if field is None:
             return None
+        where = self._region(packet, field, shown, seen)
+        if where:
+            field = _regional(field)
         if field == "ack":
             field += f":{ack_name(shown.ack)}->{ack_name(seen.ack)}"
-        return Violation("reply", f"{kind}:{field}", describe(shown), describe(seen))
+        return Violation("reply", f"{kind}{where}:{field}", describe(shown), describe(seen))
 
     def _hidden_behind(
         self, violation: Violation, sent: _Sent, reply: Reply, certainty: Certainty, seen: Observed
@@ -403,7 +415,9 @@ class Trial:
         field = difference(shown, retimed, certainty, self.target.visibility, **self._options())
         if field is None:
             return []
-        kind = family(sent.wire.packet)
+        where = self._region(sent.wire.packet, field, shown, retimed)
+        kind = family(sent.wire.packet) + where
+        field = _regional(field) if where else field
         return [Violation("reply", f"{kind}:{field}", describe(shown), describe(seen))]
 
     def _judge_sweep(
@@ -420,16 +434,47 @@ class Trial:
         if offset in self._changed:
             return None  # the change was reported when it happened
         expected, observed = (f"register {offset:#x}: {describe(r)}" for r in (shown, seen))
+        register = self._region(wire.packet, field, shown, seen)
+        where = f"{register}:{_regional(field) if register else field}"
         if was_ok:
             self._changed.add(offset)
             # It read right last time: something since then changed it, most likely
             # a write elsewhere (a write to the register itself has its read-back).
             observed += _after_writes([o for n, o in reversed(self._writes) if n > since])
-            return Violation("state", f"sweep-changed:{field}", expected, observed)
-        return Violation("reply", f"read:{field}", expected, observed)
+            return Violation("state", f"sweep-changed{where}", expected, observed)
+        return Violation("reply", f"read{where}", expected, observed)
 
     def _options(self) -> dict[str, bool]:
         return {"node_bits_only": self._node_bits_only}
+
+    def _region(
+        self,
+        packet: AsyncPacket | None,
+        field: str,
+        reply: Reply | None = None,
+        seen: Observed | None = None,
+    ) -> str:
+        """``@REGISTER`` for a mismatch in what a register does (one finding per
+        register and kind of mismatch, not one for every register the model gets
+        wrong), ``""`` for one in the packet itself or without a model. The
+        register of a block is the first one whose data differ."""
+        if field not in REGIONAL_FIELDS:
+            return ""
+        offset = getattr(packet, "offset", None)
+        if offset is not None and reply is not None and seen is not None:
+            offset += self._first_difference(reply.response, seen.response)
+        where = region(self.reference.kind, offset)
+        return f"@{where}" if where else ""
+
+    def _first_difference(self, want: object, got: object) -> int:
+        """How far into a block the first differing quadlet lies, in the target's units."""
+        a, b = _payload(want), _payload(got)
+        if a is None or b is None:
+            return 0
+        for start in range(0, min(len(a), len(b)), 4):
+            if a[start : start + 4] != b[start : start + 4]:
+                return start // 4 if self.model.quadlet_index else start
+        return 0
 
     # -- packets of our own ----------------------------------------------------------------
     def _next_tlabel(self) -> int:
@@ -528,6 +573,22 @@ def _after_writes(offsets: list[int]) -> str:
     shown = ", ".join(f"{o:#x}" for o in distinct[:_WRITES_NAMED])
     more = f" and {len(distinct) - _WRITES_NAMED} more" if len(distinct) > _WRITES_NAMED else ""
     return f", changed after accepted writes to {shown}{more}"
+
+
+def _regional(field: str) -> str:
+    """A data mismatch is one, whether a quadlet or a block showed it."""
+    return "data" if field == "quadlet_data" else field
+
+
+def _payload(response: object) -> bytes | None:
+    """The data a read response carries (decoded first if raw), else None."""
+    if isinstance(response, bytes):
+        response = decode_sound(response)
+    quadlet = getattr(response, "quadlet_data", None)
+    if quadlet is not None:
+        return int(quadlet).to_bytes(4, "big")
+    data = getattr(response, "data", None)
+    return bytes(data) if isinstance(data, bytes | bytearray) else None
 
 
 def _offset_text(packet: AsyncPacket | None) -> str:

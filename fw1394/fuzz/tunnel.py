@@ -18,7 +18,7 @@ from fw1394.packets.asynchronous import tcode_of
 from fw1394.packets.enums import TCode
 from fw1394.packets.fast import FIELD_NAMES
 from fw1394.packets.tcodes import RESPONSE_OF_REQUEST
-from fw1394.transport.wire import FrameError, parse_ack
+from fw1394.transport.sansio.wire import FrameError, parse_ack
 
 
 def answer_of(raw: bytes, *, request: bool) -> tuple[int, int] | None:

@@ -31,8 +31,7 @@ from fw1394.packets.eth1394 import (
     Eth1394Request,
     build_request,
 )
-from fw1394.transport.supervision.procs import process_alive
-from fw1394.transport.wire import (
+from fw1394.transport.sansio.wire import (
     ACK_PAYLOAD,
     HEADER_SIZE,
     MAX_UDP_PAYLOAD,
@@ -41,6 +40,7 @@ from fw1394.transport.wire import (
     FrameKind,
     parse_header,
 )
+from fw1394.transport.supervision.procs import process_alive
 
 #: The sender's physical ID in tunnel frames: the highest node, where a host sits.
 HOST_PHY = 62

@@ -18,10 +18,10 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
 
 from fw1394.fuzz import campaign
-from fw1394.fuzz.findings import merged
-from fw1394.fuzz.progress import Progress
+from fw1394.fuzz.findings import Store, merged
 from fw1394.fuzz.report import Report
 from fw1394.fuzz.settings import Settings, SettingsError
+from fw1394.progress import Progress
 
 #: In a target spec or restart command: the worker's number.
 WORKER = "{worker}"
@@ -53,10 +53,13 @@ def run(
     *,
     restart: str | None = None,
     progress: Progress | None = None,
+    store: Store | None = None,
 ) -> Report:
     """The campaign of ``settings`` on ``jobs`` worker processes; the merged report.
 
-    One job runs in this process (with ``progress``); several show no progress bar.
+    One job runs in this process (with ``progress``, its findings kept in ``store``
+    as they are found); several show no progress bar and hand their findings over
+    when they end.
     """
     if jobs < 1:
         raise SettingsError("jobs must be at least 1")
@@ -67,7 +70,7 @@ def run(
         )
     start = time.monotonic()
     if jobs == 1:
-        return campaign.run(worker_settings(settings, 0, 1), progress, restart=restart)
+        return campaign.run(worker_settings(settings, 0, 1), progress, restart=restart, store=store)
     work = [(worker_settings(settings, w, jobs), restart, w) for w in range(jobs)]
     with ProcessPoolExecutor(jobs, mp_context=_context()) as pool:
         reports = list(pool.map(_work, work))

@@ -13,6 +13,7 @@
 from fw1394.host.adapter_port import AdapterPort
 from fw1394.host.addressing import BoardNotOnBusError, BoardPort
 from fw1394.host.board import Board, BoardError
+from fw1394.host.bus_port import BusPort, open_bus
 from fw1394.host.control import PdGains, PositionLoop, Trajectory
 from fw1394.host.multiboard import MultiBoard
 from fw1394.host.port import LocalPort, ManualClock, Port, UnknownNodeError
@@ -24,6 +25,7 @@ __all__ = [
     "BoardError",
     "BoardNotOnBusError",
     "BoardPort",
+    "BusPort",
     "LocalPort",
     "ManualClock",
     "MultiBoard",
@@ -33,4 +35,5 @@ __all__ = [
     "RobotIO",
     "Trajectory",
     "UnknownNodeError",
+    "open_bus",
 ]

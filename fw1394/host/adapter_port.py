@@ -1,6 +1,6 @@
 """A :class:`~fw1394.host.port.Port` through the bus's host adapter.
 
-The adapter (:mod:`fw1394.transport.adapter`) is the bus's one host node;
+The adapter (:mod:`fw1394.transport.host_adapter.server`) is the bus's one host node;
 an :class:`AdapterPort` is a program's handle on it, as a ``/dev/fw*`` file
 is on a PC's link: opening and closing it causes no bus reset. Blocking
 calls (:meth:`AdapterPort.read_quadlet` ...) make it a Port for
@@ -24,7 +24,8 @@ from typing import Self
 
 from fw1394.engine import FailureReason, TransactionFailed
 from fw1394.errors import BusUnreachable
-from fw1394.transport.adapter_protocol import (
+from fw1394.transport.bus_host import StaleGenerationError, TransactionError
+from fw1394.transport.host_adapter.protocol import (
     CHOSEN,
     NONE,
     STALE,
@@ -37,10 +38,9 @@ from fw1394.transport.adapter_protocol import (
     hello,
     parse_reply,
 )
-from fw1394.transport.bus_host import StaleGenerationError, TransactionError
-from fw1394.transport.config import DEFAULT_BUS
-from fw1394.transport.runtime import adapter_socket, bus_dir
-from fw1394.transport.wire import NO_PHY, MemberInfo, parse_table
+from fw1394.transport.sansio.config import DEFAULT_BUS
+from fw1394.transport.sansio.wire import NO_PHY, MemberInfo, parse_table
+from fw1394.transport.supervision.runtime import adapter_socket, bus_dir
 
 
 class AdapterError(BusUnreachable):

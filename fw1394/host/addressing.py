@@ -23,7 +23,7 @@ without a ROM (or whose ROM read fails) have no GUID.
 ``Board(BoardPort(port), board_id)`` is then a :class:`~fw1394.host.robot.RobotIO`
 addressed by board ID. ``port`` is an
 :class:`~fw1394.host.adapter_port.AdapterPort` or a
-:class:`~fw1394.transport.bus_port.BusPort`.
+:class:`~fw1394.host.bus_port.BusPort`.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ from typing import Protocol, TypeVar
 
 from fw1394.errors import BusUnreachable
 from fw1394.transport.bus_host import StaleGenerationError, TransactionError
-from fw1394.transport.wire import NO_BOARD, MemberInfo
+from fw1394.transport.sansio.wire import NO_BOARD, MemberInfo
 
 log = logging.getLogger("fw1394.host")
 T = TypeVar("T")

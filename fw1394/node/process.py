@@ -3,7 +3,8 @@
 The loop is plain blocking I/O: receive a frame (the socket's receive timeout
 bounds the wait), answer requests through the link layer (:class:`ResponderLink`),
 and run the station's timers when they are due. A common request takes that turn
-in one pass (:func:`~fw1394.transport.node_express.node_turn`). A request is acked in one
+in one pass (:func:`~fw1394.transport.node_express.node_turn`, the responder's
+:meth:`~fw1394.engine.Responder.serve`). A request is acked in one
 frame that also carries the response when the policy concatenates them (same
 bus tenure); a split response is a subaction of its own.
 """
@@ -18,15 +19,15 @@ from fw1394.engine import THESIS_FPGA, Responder, ResponderPolicy
 from fw1394.engine.defects import DefectiveResponder
 from fw1394.engine.space import AddressSpace
 from fw1394.packets.nodeid import BROADCAST_ID
-from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig
-from fw1394.transport.idle import IdleStrategy
 from fw1394.transport.link import BusRefusedError, ResponderLink
-from fw1394.transport.membership import BusReset, Timing
+from fw1394.transport.media.idle import IdleStrategy
 from fw1394.transport.node_express import node_turn
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import BusReset, Timing
+from fw1394.transport.sansio.wire import NO_BOARD, FrameTooLarge
 from fw1394.transport.station import Station
 from fw1394.transport.supervision.procs import run_until_signalled
-from fw1394.transport.wire import NO_BOARD, FrameTooLarge
 
 __all__ = ["BusRefusedError", "Node", "NodeOptions", "run_node"]
 

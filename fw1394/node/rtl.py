@@ -22,7 +22,7 @@ from fw1394.packets.asynchronous import decode_async
 from fw1394.rtl.portmap import load, split_spec
 from fw1394.rtl.simulation import Simulation, SimulationError
 from fw1394.transport.link import ResponderLink
-from fw1394.transport.membership import BusReset
+from fw1394.transport.sansio.membership import BusReset
 from fw1394.transport.station import Station
 from fw1394.transport.supervision.procs import run_until_signalled
 

@@ -11,7 +11,7 @@ from fw1394.engine.policy import POLICIES
 from fw1394.errors import Error
 from fw1394.node.description import RTL_PREFIX, NodeDescription
 from fw1394.node.process import BusRefusedError, NodeOptions, run_node
-from fw1394.transport.membership import BusReset
+from fw1394.transport.sansio.membership import BusReset
 from fw1394.transport.supervision.procs import die_with_parent
 
 #: A memory node's size unless the description names another.

@@ -7,7 +7,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from fw1394.raw1394.build import library_directory
-from fw1394.transport.runtime import adapter_socket, bus_dir
+from fw1394.transport.supervision.runtime import adapter_socket, bus_dir
 
 #: The variables the library reads: the adapter's socket, and the bus's name.
 ADAPTER_VARIABLE = "FW1394_ADAPTER"

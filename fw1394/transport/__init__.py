@@ -1,33 +1,35 @@
-"""The virtual 1394 bus: processes on one multicast group behave like nodes on a cable.
+"""The virtual 1394 bus: processes on one host (or several) behave like nodes on a cable.
 
-* :mod:`~fw1394.transport.config`: a bus name -> multicast group, UDP port, tag.
-* :mod:`~fw1394.transport.wire`: the tunnel's frame format.
-* :mod:`~fw1394.transport.bpf`, :mod:`~fw1394.transport.medium`: the socket and
-  the kernel filter that plays the link layer's address recognition.
-* :mod:`~fw1394.transport.membership`: bus resets, self-IDs, physical IDs (sans-IO).
-* :mod:`~fw1394.transport.station`: one member's plumbing (node or host).
-* :mod:`~fw1394.transport.seal`: the bus key; sealing and verifying frames, replays.
-* :mod:`~fw1394.transport.link`: the link layer: frames to engine calls and back,
-  for the requester and the responder side of every member and tunnel;
-  :mod:`~fw1394.transport.node_express`: a node's common turn in one pass.
-* :mod:`~fw1394.transport.bus_host`, :mod:`~fw1394.transport.bus_port`: the host side.
-* :mod:`~fw1394.transport.launch`, :mod:`~fw1394.transport.supervisor`,
-  :mod:`~fw1394.transport.runtime`: node processes in the background (each one a
-  ``python -m fw1394.node`` process).
+By role:
+
+* :mod:`~fw1394.transport.sansio`: the bus's rules without I/O: names and groups,
+  the frame format, membership (bus resets, self-IDs, physical IDs), the seal.
+* :mod:`~fw1394.transport.media`: what carries the frames (UDP multicast, a
+  shared-memory ring), the kernel filter, and how a member waits (idle strategies).
+* :mod:`~fw1394.transport.supervision`: node processes in the background (each one
+  a ``python -m fw1394.node`` process), runtime directories, the bus key,
+  looking at a bus from outside, and the one ``stop`` for every child process.
+* :mod:`~fw1394.transport.host_adapter`: the one host member a machine's programs share.
+
+A member's own pieces sit at the top: :mod:`~fw1394.transport.station` (one member's
+plumbing, node or host), :mod:`~fw1394.transport.link` (frames to engine calls and
+back, both roles), :mod:`~fw1394.transport.node_express` (a node's common turn in one
+pass), :mod:`~fw1394.transport.bus_host` (the host member; :mod:`fw1394.host.bus_port`
+puts the host library's blocking calls on it), :mod:`~fw1394.transport.copies`
+(second copies of an answer), :mod:`~fw1394.transport.faults` (fault injection), and
+the Eth1394 world's addresses and UDP port checks (:mod:`~fw1394.transport.eth1394_addresses`,
+:mod:`~fw1394.transport.udp_ports`).
 
 ``docs/virtual-bus.md`` describes the design, the wire format and the numbers.
 """
 
 from __future__ import annotations
 
-from typing import Any
-
-from fw1394.transport.adapter_protocol import Op
 from fw1394.transport.bus_host import BusError, BusHost, StaleGenerationError, TransactionTimeout
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.config import BusConfig, BusNameError
 from fw1394.transport.eth1394_addresses import Endpoint
-from fw1394.transport.launch import AlreadyUpError, LaunchedBus, LaunchError
+from fw1394.transport.host_adapter.protocol import Op
+from fw1394.transport.sansio.config import BusConfig, BusNameError
+from fw1394.transport.supervision.launch import AlreadyUpError, LaunchedBus, LaunchError
 
 __all__ = [
     "AlreadyUpError",
@@ -35,23 +37,11 @@ __all__ = [
     "BusError",
     "BusHost",
     "BusNameError",
-    "BusPort",
     "Endpoint",
     "LaunchError",
     "LaunchedBus",
     "Op",
     "StaleGenerationError",
     "TransactionTimeout",
-    "open_bus",
 ]
 
-
-def open_bus(name: str = "default", **options: Any) -> BusPort:
-    """Join bus ``name`` as a host: a :class:`BusPort`, closed by ``with`` or ``close()``.
-
-    ``options`` are :class:`~fw1394.transport.bus_host.BusHost`'s (``ack_timeout``,
-    ``split_timeout``, ``join_timeout``, ...). The bus must be running (``fw1394 bus
-    up NAME``, or a :class:`LaunchedBus`); reads and writes raise
-    :class:`fw1394.TransactionError` (:class:`fw1394.Timeout` when nothing answered).
-    """
-    return BusPort(BusConfig(name), **options)

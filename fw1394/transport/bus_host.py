@@ -2,7 +2,7 @@
 
 :class:`BusHost` is the low-level interface: start transactions (several may
 be outstanding), then :meth:`BusHost.wait` for their events or
-:meth:`BusHost.poll` the bus. :class:`fw1394.transport.bus_port.BusPort` puts the
+:meth:`BusHost.poll` the bus. :class:`fw1394.host.bus_port.BusPort` puts the
 blocking :class:`~fw1394.host.port.Port` calls on top.
 
 A host is a bus member like any node (a contender, so it gets the highest
@@ -28,14 +28,14 @@ from fw1394.packets import AckCode, BlockReadResponse, RCode, name_of
 from fw1394.packets.fast import encode_packet
 from fw1394.packets.nodeid import BROADCAST_ID, resolve
 from fw1394.packets.nodeid import LOCAL_BUS as LOCAL_BUS  # the bus hosts address, re-exported
-from fw1394.transport.config import BusConfig
 from fw1394.transport.copies import HostLink
 from fw1394.transport.faults import FaultConfig
-from fw1394.transport.idle import IdleStrategy
 from fw1394.transport.link import ACK_SIZE, BusRefusedError
-from fw1394.transport.membership import BusReset, Timing
+from fw1394.transport.media.idle import IdleStrategy
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import BusReset, Timing
+from fw1394.transport.sansio.wire import HEADER_SIZE, MAX_UDP_PAYLOAD, MemberInfo
 from fw1394.transport.station import Station
-from fw1394.transport.wire import HEADER_SIZE, MAX_UDP_PAYLOAD, MemberInfo
 
 #: A transaction the engine has not ended this long after its own timeouts is a bug;
 #: the guard turns it into an error instead of a hang.

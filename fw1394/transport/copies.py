@@ -26,10 +26,10 @@ from __future__ import annotations
 
 from fw1394.engine import Requester
 from fw1394.packets.fast import encode_packet
-from fw1394.packets.nodeid import BROADCAST_ID, phy_of
+from fw1394.packets.nodeid import BROADCAST_ID, PHY_ID_MASK, phy_of
 from fw1394.transport.link import ACK, ACK_SIZE, ASYNC_PACKET, RequesterLink, Send
+from fw1394.transport.sansio.wire import ACK_PAYLOAD, FrameHeader
 from fw1394.transport.station import Station
-from fw1394.transport.wire import ACK_PAYLOAD, FrameHeader
 
 _unpack_ack = ACK_PAYLOAD.unpack_from
 
@@ -92,7 +92,7 @@ class HostLink(RequesterLink):
     def take(self, header: FrameHeader, payload: bytes, now: float) -> None:
         if header.kind == ACK and len(payload) >= ACK_SIZE:
             _, tlabel, _, acked = _unpack_ack(payload)
-            if self.asked.get((header.sender_phy & 0x3F) << 6 | tlabel) != acked:
+            if self.asked.get((header.sender_phy & PHY_ID_MASK) << 6 | tlabel) != acked:
                 self.stale_acks += 1  # the answer to a copy of an earlier request
                 return
         super().take(header, payload, now)

@@ -30,24 +30,21 @@ import time
 from collections.abc import Callable, Iterable
 
 from fw1394.engine import Requester, Responder
-from fw1394.engine.fast_requester import FastEnds
-from fw1394.engine.fast_responder import FastResponder
-from fw1394.engine.responder import Reply, decode_received
+from fw1394.engine.responder import Reply
 from fw1394.errors import BusUnreachable
 from fw1394.packets import AckCode, AsyncPacket
 from fw1394.packets.accessors import TLABEL
-from fw1394.packets.ack import ack_code
 from fw1394.packets.fast import decode_sound, encode_packet
 from fw1394.packets.nodeid import BROADCAST_ID, node_id, phy_of
-from fw1394.transport.membership import BusReset, Change, Excluded, Refused
-from fw1394.transport.station import Station
-from fw1394.transport.wire import (
+from fw1394.transport.sansio.membership import BusReset, Change, Excluded, Refused
+from fw1394.transport.sansio.wire import (
     ACK_PAYLOAD,
     FrameHeader,
     FrameKind,
     FrameTooLarge,
     ack_byte,
 )
+from fw1394.transport.station import Station
 
 #: Puts a frame on the link: kind, destination physical ID, payload.
 Send = Callable[[int, int, bytes], object]
@@ -175,41 +172,28 @@ class ResponderLink(LinkLayer):
         self.responder = responder
         self.epoch = epoch
         self.on_drop = on_drop
-        # The common turn on flat bytes; a responder of another class (planted
-        # defects) has its own rules and always takes the reference path.
-        fast = FastResponder(responder) if type(responder) is Responder else None
-        self.fast = None if fast is None or not fast.kinds else fast
 
     def take(self, header: FrameHeader, payload: bytes, now: float) -> None:
-        if header.kind != ASYNC_PACKET:
-            return
-        fast = self.fast
-        if fast is not None:
-            sequence = header.sequence
-            answer = fast.serve(payload, sequence, now - self.epoch)
-            if answer.__class__ is bytes:
-                self.send_ack(answer, header.sender_phy)
-                return
-            if answer is not None:
-                assert isinstance(answer, Reply)
-                self.answer(answer, _tlabel(payload), header.sender_phy, sequence)
-                return
-        self.serve(payload, header.sender_phy, header.sequence, now)
+        if header.kind == ASYNC_PACKET:
+            self.serve(payload, header.sender_phy, header.sequence, now)
+
+    def serve(self, payload: bytes, requester: int, sequence: int, now: float) -> bytes | Reply:
+        """Answer the packet ``payload`` that came in frame ``sequence`` from ``requester``;
+        the responder's answer (see :meth:`Responder.serve`)."""
+        answer = self.responder.serve(payload, sequence, now - self.epoch)
+        if isinstance(answer, bytes):
+            self.send_ack(answer, requester)
+        elif answer.ack is not None or answer.response is not None:
+            self.answer(answer, _tlabel(payload), requester, sequence)
+        return answer
 
     def send_ack(self, frame: bytes, requester: int) -> None:
-        """Send an ack frame payload from the fast path (the response may be behind it)."""
+        """Send an ack frame's payload (the response may be behind the ack)."""
         try:
             self.send(ACK, requester, frame)
         except FrameTooLarge as error:
             self._drop(requester, error)
             self.send(ACK, requester, frame[:ACK_SIZE])  # the ack alone still goes out
-
-    def serve(self, payload: bytes, requester: int, sequence: int, now: float) -> Reply:
-        """Answer the packet ``payload`` that came in frame ``sequence`` from ``requester``."""
-        packet, damaged = decode_received(payload)
-        if packet is None:
-            return _SILENT  # nothing on a real bus answers line noise
-        return self.serve_packet(packet, damaged, requester, sequence, now)
 
     def serve_packet(
         self, packet: AsyncPacket, damaged: bool, requester: int, sequence: int, now: float
@@ -257,21 +241,11 @@ class RequesterLink(LinkLayer):
     def __init__(self, requester: Requester, send: Send, station: Station | None = None) -> None:
         super().__init__(send, station)
         self.requester = requester
-        #: The common ends on flat bytes (None: the general path only).
-        self.fast_ack: Callable[[int, bytes, float], int | None] | None = FastEnds(requester).ack
 
     def take(self, header: FrameHeader, payload: bytes, now: float) -> None:
         kind = header.kind
         if kind == ACK:
-            fast = self.fast_ack
-            label = None if fast is None else fast(header.sender_phy, payload, now)
-            if label is None:
-                self.on_ack(header.sender_phy, header.sequence, payload, now)
-            else:
-                if label >= 0:  # a concatenated response completed: the link acks it
-                    ack = _pack_ack(ACK_COMPLETE_BYTE, label, 0, header.sequence)
-                    self.send(ACK, header.sender_phy, ack)
-                self.flush()  # as the general path: the end may have freed a label
+            self.on_ack(header.sender_phy, header.sequence, payload, now)
         elif kind == ASYNC_PACKET:
             self.on_response(header.sender_phy, header.sequence, payload, now)
         else:
@@ -288,16 +262,12 @@ class RequesterLink(LinkLayer):
             if self.station is not None:
                 self.station.drops.malformed += 1
             return
-        # Unpacked in place rather than through parse_ack's AckPayload: every
-        # transaction has one.
-        byte, tlabel, _, _ = _unpack_ack(payload)
-        self.requester.receive_ack(node_id(sender), tlabel, ack_code(byte), now)
-        if len(payload) > ACK_SIZE:
+        label = self.requester.take_ack_frame(sender, payload, now)
+        if label >= 0:
             # The response of the same tenure, acked like a split one (the link acks
             # whatever response it takes) under the ack frame's sequence number.
-            self.on_response(sender, sequence, payload[ACK_SIZE:], now)
-        else:
-            self.flush()  # a busy ack may have queued a retry
+            self.send(ACK, sender, _pack_ack(ACK_COMPLETE_BYTE, label, 0, sequence))
+        self.flush()  # an end may have freed a label, a busy ack queued a retry
 
     def on_response(self, sender: int, sequence: int, payload: bytes, now: float) -> None:
         """A response packet from ``sender`` in frame ``sequence``, acked if the engine says so."""
@@ -324,6 +294,3 @@ class RequesterLink(LinkLayer):
 
     def excluded(self, *, generation: int) -> None:
         self.requester.bus_reset(generation=generation)
-
-
-_SILENT = Reply(None, None, False)

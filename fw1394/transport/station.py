@@ -21,15 +21,13 @@ from itertools import count
 
 from fw1394.packets import Speed
 from fw1394.packets.frame import FRAME_TRAILER_SIZE
-from fw1394.transport import runtime
-from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig, FaultInjector
-from fw1394.transport.idle import IdleStrategy, default_idle
-from fw1394.transport.media import open_medium
-from fw1394.transport.membership import Change, Membership, Role, Timing
-from fw1394.transport.seal import DropCounts, Sealer, Verifier, key_for
-from fw1394.transport.supervision.procs import pid_namespace, process_alive
-from fw1394.transport.wire import (
+from fw1394.transport.media.choice import open_medium
+from fw1394.transport.media.idle import IdleStrategy, default_idle
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import Change, Membership, Role, Timing
+from fw1394.transport.sansio.seal import DropCounts, Sealer, Verifier
+from fw1394.transport.sansio.wire import (
     BROADCAST_PHY,
     CONTROL_KINDS,
     HEADER,
@@ -45,6 +43,9 @@ from fw1394.transport.wire import (
     FrameTooLarge,
     MemberInfo,
 )
+from fw1394.transport.supervision import runtime
+from fw1394.transport.supervision.bus_key import key_for
+from fw1394.transport.supervision.procs import pid_namespace, process_alive
 
 _FAULTED = frozenset({FrameKind.async_packet, FrameKind.ack})
 #: Kinds :class:`Membership` takes; only PHY packets of them also reach the owner.
@@ -242,6 +243,11 @@ class Station:
         """The next data frame (async packet, ack, PHY packet), or None on a quiet poll."""
         raw = self.medium.receive()
         return None if raw is None else self._take(raw)
+
+    def open(self, raw: bytes) -> bytes | None:
+        """A datagram from :attr:`medium` with its MAC checked and cut off (as it came,
+        on an insecure bus); None: forged or replayed, counted, never to be seen."""
+        return raw if self._verifier is None else self._verifier.open(raw)
 
     def _open_and_take(self, raw: bytes) -> tuple[FrameHeader, bytes] | None:
         assert self._verifier is not None

@@ -13,9 +13,9 @@ from collections.abc import Sequence
 
 from fw1394.boards import BOARDS
 from fw1394.boards.snake2010.regmap import REGISTER_MAP as SNAKE2010_MAP
-from fw1394.transport.config import BusNameError
-from fw1394.transport.runtime import bus_dir, read_nodes
-from fw1394.transport.wire import MemberInfo
+from fw1394.transport.sansio.config import BusNameError
+from fw1394.transport.sansio.wire import MemberInfo
+from fw1394.transport.supervision.runtime import bus_dir, read_nodes
 
 #: ``fw1394 node run`` serves plain memory unless told otherwise.
 NODE_DEFAULT_BOARD = "memory"

@@ -12,8 +12,8 @@ import pytest
 from bus_support import LaunchBus
 
 from fw1394.capture.formats.bus_tap import BATCH_INTERVAL
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.membership import Timing
+from fw1394.host.bus_port import BusPort
+from fw1394.transport.sansio.membership import Timing
 
 READS = 400
 #: Between reads: long enough for a tap that slept in recv to fall asleep

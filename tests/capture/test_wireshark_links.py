@@ -23,6 +23,7 @@ from fw1394.capture.formats.record import BusRecord, RecordType
 from fw1394.capture.formats.trace_writer import write_trace
 from fw1394.capture.views.lua_dissector import generate
 from fw1394.cli.main import main
+from fw1394.host.bus_port import BusPort
 from fw1394.packets import (
     AckCode,
     BlockReadResponse,
@@ -31,9 +32,8 @@ from fw1394.packets import (
     WriteResponse,
     encode,
 )
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.config import BusConfig
-from fw1394.transport.launch import LaunchedBus
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.supervision.launch import LaunchedBus
 
 TSHARK = shutil.which("tshark")
 pytestmark = [

@@ -14,7 +14,7 @@ from collections.abc import Iterator
 import pytest
 from adapter_support import AdapterBus, adapter_bus
 
-from fw1394.transport.observe import watch
+from fw1394.transport.supervision.observe import watch
 
 
 @pytest.fixture(scope="module")

@@ -16,7 +16,7 @@ import pytest
 
 from fw1394.demo.report import summary, traffic
 from fw1394.demo.run import _tap, run_demo
-from fw1394.transport.config import BusConfig
+from fw1394.transport.sansio.config import BusConfig
 
 #: The block type that opens every pcapng file.
 PCAPNG_SECTION = b"\x0a\x0d\x0d\x0a"

@@ -21,7 +21,7 @@ import pytest
 
 from fw1394.cli import demo
 from fw1394.cli.common import print_table
-from fw1394.fuzz.progress import Progress as FuzzProgress
+from fw1394.progress import Progress
 
 ESCAPE = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
 ROWS = [("node", "kind", "generation"), ("0", "snake2010", "3"), ("12", "qla1", "3")]
@@ -108,26 +108,29 @@ def test_rich_markup_in_a_cell_is_printed_as_is(monkeypatch: pytest.MonkeyPatch)
     assert lines == ["offset  [bold]0x400[/bold]", "name    [config ROM+0x0]"]
 
 
-def fuzz_session(progress: FuzzProgress) -> None:
+def fuzz_session(progress: Progress) -> None:
+    progress.start("fuzzing", 256)
     for cases in (0, 64, 128):
-        progress.update(cases, 1, force=True)
-    progress.close()
+        progress.update(cases, "cases, 900/s, 1 findings", force=True)
+    progress.finish("stopped: max-cases")
 
 
 def test_fuzz_progress_is_a_rich_bar_on_a_terminal(monkeypatch: pytest.MonkeyPatch) -> None:
-    shown = on_terminal(monkeypatch, "stderr", lambda: fuzz_session(FuzzProgress(256, None)))
+    shown = on_terminal(monkeypatch, "stderr", lambda: fuzz_session(Progress()))
     plain = ESCAPE.sub("", shown)
-    assert "━" in shown and "#" not in plain  # rich's bar, not the hand-drawn one
-    assert re.search(r"50%\s+128 cases, \d+/s, 1 findings, \d+\.\d s", plain)
+    assert "━" in shown and "#" not in plain  # rich's bar, not a hand-drawn one
+    assert re.search(r"50%\s+128/256 cases, 900/s, 1 findings", plain)
+    assert re.search(r"fuzzing: done in \d+\.\d s; stopped: max-cases", plain)
 
 
 def test_fuzz_progress_stays_plain_in_a_pipe() -> None:
     stream = io.StringIO()
-    fuzz_session(FuzzProgress(256, None, stream))
-    frames = stream.getvalue().split("\r")[1:]
-    assert [frame.split("]")[0] for frame in frames] == [
-        "[" + "." * 24,
-        "[" + "#" * 6 + "." * 18,
-        "[" + "#" * 12 + "." * 12,
+    fuzz_session(Progress(stream))
+    lines = stream.getvalue().splitlines()
+    assert [line.split(" (")[0] for line in lines[:-1]] == [
+        "fuzzing: 0/256",
+        "fuzzing: 64/256",
+        "fuzzing: 128/256",
     ]
-    assert frames[-1].endswith("\x1b[K\n") and "cases, " in frames[-1]
+    assert "25%" in lines[1] and lines[1].endswith("cases, 900/s, 1 findings")
+    assert lines[-1].startswith("fuzzing: done in ") and "\x1b" not in stream.getvalue()

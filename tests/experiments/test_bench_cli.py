@@ -21,10 +21,10 @@ from fw1394.experiments.connect import TargetSpec, parse_target
 from fw1394.experiments.regime import settle_time
 from fw1394.experiments.report_text import render
 from fw1394.experiments.timing import SWITCH_WARMUP
-from fw1394.transport.config import BusConfig
 from fw1394.transport.eth1394_addresses import Endpoint
-from fw1394.transport.idle import default_idle
-from fw1394.transport.launch import LaunchedBus
+from fw1394.transport.media.idle import default_idle
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.supervision.launch import LaunchedBus
 
 SMALL = ["--iterations", "300", "--sizes", "1,8,64,512", "--passes", "2", "--quiet", "--json"]
 PORT = 40_000 + os.getpid() % 10_000

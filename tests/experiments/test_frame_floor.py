@@ -7,12 +7,12 @@ import statistics
 
 import pytest
 
-from fw1394.engine.fast_requester import concatenated_data
+from fw1394.engine.requester import concatenated_data
 from fw1394.experiments.frame_floor import FRAMES, HOST, NODE, FrameFloor, frames
 from fw1394.packets import AckCode, QuadletReadRequest, QuadletReadResponse, decode
 from fw1394.packets.ack import ACK_BYTES
-from fw1394.transport.config import BusConfig
-from fw1394.transport.wire import HEADER_SIZE, FrameKind, parse_ack, parse_header
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.wire import HEADER_SIZE, FrameKind, parse_ack, parse_header
 
 
 def test_the_frames_are_a_quadlet_read_that_the_host_would_accept() -> None:

@@ -10,10 +10,10 @@ from fw1394.experiments import regime as regime_module
 from fw1394.experiments import timing
 from fw1394.experiments.baseline import Baseline
 from fw1394.experiments.measurements import measure_blocks_interleaved
-from fw1394.experiments.phase_progress import Progress
 from fw1394.experiments.regime import SETTLE_MIN_S, Regime
 from fw1394.experiments.run_settings import FULL, QUICK, Settings
-from fw1394.transport.idle import ENVIRONMENT
+from fw1394.progress import Progress
+from fw1394.transport.media.idle import ENVIRONMENT
 
 COLD_US = 300.0
 RAW_US = 15.0

@@ -20,7 +20,7 @@ from fw1394.experiments.regime import (
     settle_time,
     switches,
 )
-from fw1394.transport.idle import ADAPTIVE, BLOCK, ENVIRONMENT, SPIN, parse_idle
+from fw1394.transport.media.idle import ADAPTIVE, BLOCK, ENVIRONMENT, SPIN, parse_idle
 
 LINUX = sys.platform.startswith("linux")
 

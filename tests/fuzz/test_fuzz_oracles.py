@@ -24,7 +24,7 @@ from fw1394.packets import (
     WriteResponse,
     encode,
 )
-from fw1394.transport.wire import AckPayload, ack_byte
+from fw1394.transport.sansio.wire import AckPayload, ack_byte
 
 NODE = 0xFFC0
 
@@ -96,11 +96,11 @@ def test_state_read_back_and_sweep_see_a_stored_status_write() -> None:
     s = trial("qla1", "status-write-stored", contract="jhu")
     assert s.sweep() == []  # the baseline: every register reads right
     write = encode(QuadletWriteRequest(destination_id=0xFFFF, offset=0, quadlet_data=0x0F0F))
-    assert keys(s.case(write)) == {("state", "accepted-write:quadlet_data")}
+    assert keys(s.case(write)) == {("state", "accepted-write@STATUS:data")}
     found = set()
     for _ in range(3):  # the sweep comes every 4 cases here
         found |= keys(s.case(read(4)))
-    assert found == {("state", "sweep-changed:quadlet_data")}
+    assert found == {("state", "sweep-changed@STATUS:data")}
 
 
 def test_silence_reasons_follow_the_screens() -> None:

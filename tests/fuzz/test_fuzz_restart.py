@@ -31,7 +31,7 @@ EXPECTED = {
     ("silence", "other-node:read:response"),
     ("silence", "bad-header-crc:read:response"),
     ("liveness", "valid-read-unanswered"),
-    ("state", "sweep-changed:quadlet_data"),
+    ("state", "sweep-changed@MEMORY:data"),
 }
 #: Seconds a node process lives at most (it stops by itself).
 NODE_LIFETIME = 120
@@ -95,7 +95,7 @@ def test_one_campaign_finds_shrinks_and_replays_every_violation(
     found = tmp_path / "found"
     result = cli(
         "run", target, "--eth1394", "--model", "memory", "--restart", restart,
-        "--max-cases", "1200", "--duration", "40", "--state-every", "16", "--history", "128",
+        "--max-cases", "1200", "--state-every", "16", "--history", "128",
         "--timeout", "0.2", "--dead-after", "10", "--shrink-budget", "25",
         "--findings", str(found), "--json",
     )  # fmt: skip
@@ -115,7 +115,7 @@ def test_one_campaign_finds_shrinks_and_replays_every_violation(
     assert wedge.restarts and wedge.restarts[0]["status"] == 0
     assert "node started as process" in wedge.restarts[0]["output"]
     # The side effect: both registers named.
-    side = findings[("state", "sweep-changed:quadlet_data")]
+    side = findings[("state", "sweep-changed@MEMORY:data")]
     assert "register 0x24" in side.observed and "0x10" in side.observed
     # Each silence finding is one packet.
     for key in EXPECTED:

@@ -27,10 +27,10 @@ from adapter_support import AdapterBus, adapter_bus
 from fw1394.engine import FailureReason
 from fw1394.host.adapter_port import AdapterPort
 from fw1394.host.addressing import BoardNotOnBusError, BoardPort
-from fw1394.transport.adapter_protocol import Op
+from fw1394.host.bus_port import BusPort
 from fw1394.transport.bus_host import StaleGenerationError, TransactionError
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.membership import Timing
+from fw1394.transport.host_adapter.protocol import Op
+from fw1394.transport.sansio.membership import Timing
 
 TRANSACTIONS = 10_000
 BOARDS = (0, 1, 2)

@@ -20,6 +20,7 @@ from fw1394.engine import Responder
 from fw1394.engine.policy import POLICIES
 from fw1394.host import Board
 from fw1394.host.adapter_port import AdapterPort, NoAdapterError
+from fw1394.host.bus_port import BusPort
 from fw1394.host.explain import unserved
 from fw1394.packets import (
     AckCode,
@@ -32,7 +33,6 @@ from fw1394.packets import (
     StreamPacket,
 )
 from fw1394.packets.nodeid import node_id
-from fw1394.transport.bus_port import BusPort
 from fw1394.watch.readings import split_dac_word
 
 ME, HOST = node_id(0), node_id(5)

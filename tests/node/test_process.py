@@ -13,9 +13,9 @@ from fw1394.node.process import Node, NodeOptions
 from fw1394.packets import QuadletReadRequest, QuadletReadResponse
 from fw1394.packets.fast import encode_packet
 from fw1394.transport import station as station_module
-from fw1394.transport.config import BusConfig
-from fw1394.transport.idle import BLOCK, IdleStrategy
-from fw1394.transport.wire import HEADER_SIZE, FrameHeader, FrameKind, MemberInfo, pack_table
+from fw1394.transport.media.idle import BLOCK, IdleStrategy
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.wire import HEADER_SIZE, FrameHeader, FrameKind, MemberInfo, pack_table
 
 HOST = MemberInfo(member_id=0x0505, rank=9, contender=True, host=True)
 

@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 from fw1394.packets import Ack, decode, encode
 from fw1394.packets.ack import ACK_BYTES, ACK_LAYOUT, ack_byte, ack_code, ack_parity_ok
 from fw1394.packets.render import summary
-from fw1394.transport import wire
+from fw1394.transport.sansio import wire
 
 
 def test_spec_examples() -> None:

@@ -22,7 +22,8 @@ from fw1394.packets.frame import (
     FRAME_PREFIX,
     FRAME_VERSION,
 )
-from fw1394.transport import bpf, wire
+from fw1394.transport.media import bpf
+from fw1394.transport.sansio import wire
 
 u8 = st.integers(0, 0xFF)
 u16 = st.integers(0, 0xFFFF)
@@ -46,7 +47,7 @@ def headers() -> st.SearchStrategy[dict[str, int]]:
 
 
 def test_the_header_is_the_documented_24_bytes() -> None:
-    # The byte table in wire.py's docstring and docs/virtual-bus.md, written out independently.
+    # The byte table of docs/virtual-bus.md, written out independently.
     assert wire.HEADER_SIZE == 24 == FRAME_HEADER.sizeof()
     assert {name: offset for name, (offset, _) in FRAME_HEADER_SPANS.items()} == {
         "magic": 0,

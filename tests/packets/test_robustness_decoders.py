@@ -2,7 +2,7 @@
 
 Documented errors: :class:`~fw1394.packets.PacketError` for the packet codec,
 :class:`~fw1394.packets.eth1394.Eth1394Error` for the Eth1394 framing,
-:class:`~fw1394.transport.wire.FrameError` for the tunnel's frames. Inputs are
+:class:`~fw1394.transport.sansio.wire.FrameError` for the tunnel's frames. Inputs are
 random bytes and, more to the point, the fuzzer's own malformed packets.
 """
 
@@ -24,7 +24,13 @@ from fw1394.packets.eth1394 import (
     parse_response,
 )
 from fw1394.packets.fast import decode_packet, decode_sound
-from fw1394.transport.wire import FrameError, parse_ack, parse_header, parse_join, parse_table
+from fw1394.transport.sansio.wire import (
+    FrameError,
+    parse_ack,
+    parse_header,
+    parse_join,
+    parse_table,
+)
 
 MANY = settings(max_examples=300, deadline=None, suppress_health_check=list(HealthCheck))
 anything = st.one_of(st.binary(max_size=96), fuzz_cases(max_data=64), malformed_packets())

@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from fw1394.transport.adapter_protocol import (
+from fw1394.transport.host_adapter.protocol import (
     LENGTH,
     REPLY,
     REQUEST,

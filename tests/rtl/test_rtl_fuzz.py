@@ -59,9 +59,10 @@ def test_campaign_on_the_thesis_rtl_is_clean() -> None:
         ("any-node", 20, ("silence", "other-node:")),
         ("unbounded-block", 80, ("reply", "read:rcode")),
         ("early-ack", 80, ("silence", "bad-length:write:ack_complete")),
-        ("long-hold", 5, ("interface", "hold")),
-        ("no-second-grant", 5, ("interface", "no-grant")),
-        ("no-closing-idle", 5, ("interface", "closing-idle")),
+        ("long-hold", 5, ("interface", "hold:read")),
+        ("long-write-hold", 20, ("interface", "hold:write")),
+        ("no-second-grant", 5, ("interface", "no-grant:read")),
+        ("no-closing-idle", 5, ("interface", "closing-idle:")),
     ],
 )
 def test_planted_rtl_defects_are_found(defect: str, cases: int, finding: tuple[str, str]) -> None:
@@ -70,3 +71,16 @@ def test_planted_rtl_defects_are_found(defect: str, cases: int, finding: tuple[s
     assert any(f.oracle == oracle and f.signature.startswith(prefix) for f in report.findings), [
         (f.oracle, f.signature) for f in report.findings
     ]
+
+
+def test_one_rule_broken_on_two_paths_is_two_findings() -> None:
+    # Both defects break the same rule (Hold beyond 47 cycles), one before a read's
+    # response, one before a write's ack: two root causes, two findings.
+    defects = ("long-hold", "long-write-hold")
+    report = run(Settings("rtl:thesis", defects=defects, max_cases=12, seed=2, shrink_budget=6))
+    holds = {f.signature: f for f in report.findings if f.oracle == "interface"}
+    assert {"hold:read", "hold:write"} <= set(holds), sorted(holds)
+    # The write's finding replays, shrunk to a packet of its own kind (tcode 0 or 1).
+    write = holds["hold:write"]
+    assert write.reproduced
+    assert write.packet[3] >> 4 in (0, 1)

@@ -24,7 +24,8 @@ from fw1394.engine import FailureReason
 from fw1394.host.adapter_port import AdapterPort
 from fw1394.packets import AckCode, QuadletReadRequest, QuadletReadResponse, decode, encode
 from fw1394.packets.nodeid import node_id
-from fw1394.transport.adapter_protocol import (
+from fw1394.transport.bus_host import TransactionError
+from fw1394.transport.host_adapter.protocol import (
     FrameBuffer,
     Op,
     Reply,
@@ -33,9 +34,8 @@ from fw1394.transport.adapter_protocol import (
     parse_reply,
     parse_request,
 )
-from fw1394.transport.bus_host import TransactionError
-from fw1394.transport.observe import watch
-from fw1394.transport.runtime import adapter_socket
+from fw1394.transport.supervision.observe import watch
+from fw1394.transport.supervision.runtime import adapter_socket
 
 # -- the protocol, in process ------------------------------------------------------------
 
@@ -101,9 +101,9 @@ def memory_bus() -> object:
 
 TRAFFIC = """
 import sys, time
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.config import BusConfig
-from fw1394.transport.membership import Timing
+from fw1394.host.bus_port import BusPort
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import Timing
 port = BusPort(BusConfig(sys.argv[1]), timing=Timing(heartbeat=0.1, lease=2.0))
 port.wait_ready()
 print("ready", flush=True)

@@ -1,7 +1,7 @@
 """The adapter protocol's bytes and generation pinning, against docs/host-adapter.md.
 
 The layouts below are written from the document's tables, not taken from
-``fw1394.transport.adapter_protocol``: the module's encoder and decoder are
+``fw1394.transport.host_adapter.protocol``: the module's encoder and decoder are
 checked against them, and a client made of them alone speaks to a live
 adapter over its Unix socket.
 """
@@ -17,7 +17,8 @@ from adapter_support import AdapterBus, adapter_bus
 from hypothesis import given
 from hypothesis import strategies as st
 
-from fw1394.transport.adapter_protocol import (
+from fw1394.host.bus_port import BusPort
+from fw1394.transport.host_adapter.protocol import (
     Op,
     Reply,
     Request,
@@ -25,9 +26,8 @@ from fw1394.transport.adapter_protocol import (
     parse_reply,
     parse_request,
 )
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.membership import Timing
-from fw1394.transport.runtime import adapter_socket
+from fw1394.transport.sansio.membership import Timing
+from fw1394.transport.supervision.runtime import adapter_socket
 
 # -- the document's layouts ---------------------------------------------------------------
 #: Section 3: request, op, node, extended_tcode, generation, offset, length, quadlet, wait.
@@ -295,7 +295,7 @@ def test_a_request_of_an_ended_generation_is_never_sent(bus: AdapterBus) -> None
 
 @pytest.mark.process
 def test_bus_port_calls_pinned_to_an_ended_generation_send_nothing(bus: AdapterBus) -> None:
-    from fw1394.transport.bus_port import StaleGenerationError
+    from fw1394.host.bus_port import StaleGenerationError
 
     with BusPort(bus.config, timing=Timing(heartbeat=0.1, lease=2.0)) as port:
         port.wait_ready()

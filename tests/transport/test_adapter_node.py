@@ -13,8 +13,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from fw1394.packets.enums import ExtendedTCode, RCode, TCode
-from fw1394.transport.adapter_iso import IsoChannels
-from fw1394.transport.adapter_node import Incoming, LocalNode, cycle_timer
+from fw1394.transport.host_adapter.iso import IsoChannels
+from fw1394.transport.host_adapter.local_node import Incoming, LocalNode, cycle_timer
 
 CSR = 0xFFFF_F000_0000
 FCP_COMMAND = CSR + 0xB00

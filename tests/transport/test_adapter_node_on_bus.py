@@ -15,9 +15,9 @@ import threading
 import pytest
 from adapter_support import AdapterBus, adapter_bus
 
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.membership import Timing
-from fw1394.transport.runtime import adapter_socket
+from fw1394.host.bus_port import BusPort
+from fw1394.transport.sansio.membership import Timing
+from fw1394.transport.supervision.runtime import adapter_socket
 
 pytestmark = pytest.mark.process
 

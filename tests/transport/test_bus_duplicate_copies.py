@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import os
 
-from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig
-from fw1394.transport.seal import Verifier
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.seal import Verifier
+from fw1394.transport.sansio.wire import FrameKind
 from fw1394.transport.station import Station
-from fw1394.transport.wire import FrameKind
 
 
 def test_a_duplicated_frame_is_dropped_as_a_replay_on_a_keyed_bus() -> None:

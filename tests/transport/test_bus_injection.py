@@ -20,14 +20,14 @@ from bus_support import bus_name, wait_until_gone
 
 from fw1394.capture.formats.bus_tap import BusTap
 from fw1394.cli.main import main
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.config import BusConfig
-from fw1394.transport.launch import LaunchedBus
-from fw1394.transport.media import open_medium
-from fw1394.transport.membership import Timing
-from fw1394.transport.runtime import bus_dir, read_members
-from fw1394.transport.seal import KEY_ENV, KEY_FILE_ENV, new_key
-from fw1394.transport.wire import FrameKind, parse_header
+from fw1394.host.bus_port import BusPort
+from fw1394.transport.media.choice import open_medium
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import Timing
+from fw1394.transport.sansio.wire import FrameKind, parse_header
+from fw1394.transport.supervision.bus_key import KEY_ENV, KEY_FILE_ENV, new_key
+from fw1394.transport.supervision.launch import LaunchedBus
+from fw1394.transport.supervision.runtime import bus_dir, read_members
 
 ARGS = ("--heartbeat", "0.1", "--lease", "2.0")
 TIMING = Timing(heartbeat=0.1, lease=2.0)
@@ -37,9 +37,9 @@ FORGER = r"""
 import secrets, sys
 from fw1394.packets import QuadletWriteRequest, encode
 from fw1394.packets.nodeid import node_id
-from fw1394.transport.config import BusConfig
-from fw1394.transport.media import open_medium
-from fw1394.transport.wire import FrameHeader, FrameKind, parse_header
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.media.choice import open_medium
+from fw1394.transport.sansio.wire import FrameHeader, FrameKind, parse_header
 
 config = BusConfig(sys.argv[1], key=b"")
 medium = open_medium(config, poll_interval=0.02)

@@ -20,9 +20,9 @@ from bus_support import bus_name, node_command, stop, wait_until_gone
 from fake_bus import FakeBus, settled
 
 from fw1394.engine import ReadCompleted, TransactionEvent, TransactionFailed
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.config import BusConfig
-from fw1394.transport.membership import Timing
+from fw1394.host.bus_port import BusPort
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import Timing
 
 # self_id_timeout (1 s) below the lease, as on every bus the tests and benches run:
 # a reset must not renew the lease of a member that stays silent through it.
@@ -36,7 +36,7 @@ ACK_TIMEOUT = 1.0
 _SLOW_LINK = f"""
 import sys, time
 from fw1394.cli.bus import standalone
-from fw1394.transport.medium import Medium
+from fw1394.transport.media.udp import Medium
 
 attach = Medium.filter_as_member
 

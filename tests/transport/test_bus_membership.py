@@ -6,8 +6,8 @@ import pytest
 from fake_bus import FAKE_TIMING, FakeBus, settled
 
 from fw1394.packets import PortStatus, SelfIdPacket, decode
-from fw1394.transport.membership import BusReset, Membership, Refused, Role, Timing
-from fw1394.transport.wire import MAX_MEMBERS, MemberInfo
+from fw1394.transport.sansio.membership import BusReset, Membership, Refused, Role, Timing
+from fw1394.transport.sansio.wire import MAX_MEMBERS, MemberInfo
 
 
 def test_ids_follow_rank_and_the_host_is_root() -> None:

@@ -19,23 +19,26 @@ import pytest
 from bus_support import bus_name, wait_hosts_dropped, wait_until_gone
 from polling import wait_until
 
-from fw1394.transport.config import BusConfig
-from fw1394.transport.launch import LaunchedBus
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.supervision.launch import LaunchedBus
 
 # A lease of 2 s: a loaded machine that stalls a node for a second resets no bus here.
 ARGS = ("--heartbeat", "0.1", "--lease", "2.0")
 
-# A host in its own process, keeping ``depth`` reads of known values outstanding and
-# printing every outcome and every bus reset it took part in as JSON lines.
+# A host in its own process, keeping ``depth`` reads of known values outstanding
+# until SIGUSR1 (or a minute) and printing every outcome and every bus reset it
+# took part in as JSON lines.
 HOST_PROGRAM = r"""
-import json, sys, time
+import json, signal, sys, time
 from collections import deque
 from fw1394.engine import ReadCompleted, TransactionFailed
 from fw1394.transport.bus_host import BusHost
-from fw1394.transport.config import BusConfig
-from fw1394.transport.membership import Timing
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import Timing
 
-name, seconds, depth = sys.argv[1], float(sys.argv[2]), int(sys.argv[3])
+name, depth = sys.argv[1], int(sys.argv[2])
+told = []
+signal.signal(signal.SIGUSR1, lambda *_: told.append(True))
 host = BusHost(BusConfig(name), timing=Timing(heartbeat=0.1, lease=2.0),
                ack_timeout=0.3, split_timeout=0.3)
 seen = 0
@@ -47,9 +50,11 @@ report(kind="ready", phy=host.phy_id, nodes=nodes)
 for node in nodes:  # quadlet q of node n holds n * 1000 + q
     for quadlet in range(64):
         host.wait(host.start_write_quadlet(node, 4 * quadlet, node * 1000 + quadlet))
-limit, count, pending = time.monotonic() + seconds, 0, deque()
-while time.monotonic() < limit or pending:
-    while len(pending) < depth and time.monotonic() < limit:
+limit, count, pending = time.monotonic() + 60, 0, deque()
+def going():
+    return not told and time.monotonic() < limit
+while going() or pending:
+    while len(pending) < depth and going():
         count += 1
         node, quadlet = nodes[count % len(nodes)], count % 64
         started = time.monotonic()
@@ -69,6 +74,15 @@ report(kind="done")
 """
 
 
+# Transactions after the pause that show the host went on.
+ENOUGH = 20
+
+
+def transactions_after(log: Path, mark: int) -> int:
+    """Transactions the host's log reports after its first ``mark`` bytes."""
+    return log.read_bytes()[mark:].count(b'"kind": "tx"')
+
+
 @pytest.mark.parametrize("depth", [1, 16])
 @pytest.mark.process
 def test_a_stopped_host_comes_back_without_failures_or_taking_over(
@@ -80,7 +94,7 @@ def test_a_stopped_host_comes_back_without_failures_or_taking_over(
         log = tmp_path / "host.jsonl"
         with open(log, "w") as out:  # a file never blocks the host as a full pipe would
             host = subprocess.Popen(
-                [sys.executable, "-c", HOST_PROGRAM, config.name, "7", str(depth)], stdout=out
+                [sys.executable, "-c", HOST_PROGRAM, config.name, str(depth)], stdout=out
             )
         try:
             # Stop the host in the middle of its traffic, and continue it once the
@@ -88,8 +102,11 @@ def test_a_stopped_host_comes_back_without_failures_or_taking_over(
             wait_until(lambda: '"kind": "tx"' in log.read_text(), timeout=30)
             os.kill(host.pid, signal.SIGSTOP)
             wait_hosts_dropped(bus.member_config)
-            resumed = time.monotonic()
+            resumed, mark = time.monotonic(), log.stat().st_size
             os.kill(host.pid, signal.SIGCONT)
+            # Enough traffic after the pause to judge it, then the host's end.
+            wait_until(lambda: transactions_after(log, mark) >= 2 * ENOUGH, timeout=30)
+            os.kill(host.pid, signal.SIGUSR1)
             host.wait(30)
             output = log.read_text()
         finally:
@@ -103,7 +120,7 @@ def test_a_stopped_host_comes_back_without_failures_or_taking_over(
     assert ready["kind"] == "ready" and ready["phy"] == 2
     transactions = [line for line in lines if line["kind"] == "tx"]
     after = [t for t in transactions if t["at"] > resumed]
-    assert len(after) > 20, "the host did not go on after the pause"
+    assert len(after) > ENOUGH, "the host did not go on after the pause"
     resets = [line for line in lines if line["kind"] == "reset"]
     # A request the stop caught before it went out leaves in the old generation,
     # after the bus dropped the host: no answer can come, and the documented end

@@ -16,13 +16,13 @@ from fw1394.capture.formats.bus_tap import BusTap
 from fw1394.capture.formats.record import RecordType
 from fw1394.cli.main import main
 from fw1394.engine import FailureReason, ReadCompleted, TransactionFailed
+from fw1394.host.bus_port import BusPort
 from fw1394.packets import AckCode, SelfIdPacket, decode
 from fw1394.transport.bus_host import TransactionError
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.config import BusConfig
 from fw1394.transport.faults import FaultConfig
-from fw1394.transport.launch import LaunchedBus
-from fw1394.transport.membership import Timing
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import Timing
+from fw1394.transport.supervision.launch import LaunchedBus
 
 # Timeouts are generous (1 s): this machine sometimes stalls a round trip for milliseconds.
 FAST_TIMING = Timing(heartbeat=0.1, lease=2.0)
@@ -249,7 +249,7 @@ def test_a_response_too_large_for_a_datagram_is_dropped_not_fatal(tmp_path: Path
     from fw1394.packets import BlockReadRequest
     from fw1394.packets.fast import encode_packet
     from fw1394.transport.bus_host import LOCAL_BUS, MAX_BLOCK_READ
-    from fw1394.transport.wire import FrameKind
+    from fw1394.transport.sansio.wire import FrameKind
 
     name = bus_name("oversize")
     log = tmp_path / "node.log"

@@ -1,4 +1,4 @@
-"""Only members speak: sealing, verifying and the replay window (fw1394.transport.seal)."""
+"""Only members speak: sealing, verifying and the replay window (fw1394.transport.sansio.seal)."""
 
 from __future__ import annotations
 
@@ -11,20 +11,18 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from fw1394.packets.frame import FRAME_TRAILER, FRAME_TRAILER_SIZE
-from fw1394.transport.config import BusConfig
-from fw1394.transport.seal import (
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.seal import REPLAY_WINDOW, Sealer, Verifier
+from fw1394.transport.sansio.wire import FrameHeader, FrameKind
+from fw1394.transport.supervision.bus_key import (
     KEY_ENV,
     KEY_FILE_ENV,
-    REPLAY_WINDOW,
     BusKeyError,
-    Sealer,
-    Verifier,
     key_for,
     new_key,
     read_key,
     write_key,
 )
-from fw1394.transport.wire import FrameHeader, FrameKind
 
 KEY = bytes(range(32))
 

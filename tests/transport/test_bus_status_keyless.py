@@ -20,10 +20,10 @@ from bus_support import bus_name
 
 from fw1394.cli.main import main
 from fw1394.packets.frame import FRAME_TRAILER_SIZE
-from fw1394.transport.config import BusConfig
-from fw1394.transport.launch import LaunchedBus
-from fw1394.transport.medium import Medium
-from fw1394.transport.seal import KEY_ENV, KEY_FILE_ENV, new_key
+from fw1394.transport.media.udp import Medium
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.supervision.bus_key import KEY_ENV, KEY_FILE_ENV, new_key
+from fw1394.transport.supervision.launch import LaunchedBus
 
 pytestmark = pytest.mark.process
 

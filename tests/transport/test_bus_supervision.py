@@ -11,11 +11,11 @@ import pytest
 from bus_support import bus_name, start_node, stop, wait_until_gone
 
 from fw1394.cli.main import main
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.config import BusConfig
-from fw1394.transport.launch import LaunchedBus
-from fw1394.transport.membership import Timing
-from fw1394.transport.seal import new_key
+from fw1394.host.bus_port import BusPort
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import Timing
+from fw1394.transport.supervision.bus_key import new_key
+from fw1394.transport.supervision.launch import LaunchedBus
 from fw1394.transport.supervision.procs import process_alive
 
 ARGS = ("--heartbeat", "0.1", "--lease", "2.0")

@@ -6,10 +6,10 @@ import socket
 
 import pytest
 
-from fw1394.transport.config import BusConfig, BusNameError
 from fw1394.transport.faults import FaultConfig, FaultInjector
-from fw1394.transport.medium import Medium
-from fw1394.transport.wire import (
+from fw1394.transport.media.udp import Medium
+from fw1394.transport.sansio.config import BusConfig, BusNameError
+from fw1394.transport.sansio.wire import (
     AckPayload,
     FrameHeader,
     FrameKind,

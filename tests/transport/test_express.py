@@ -1,7 +1,7 @@
 """The one-pass blocking calls end every transaction as the general path does.
 
 Two hosts run the same script against a scripted station: one through
-:class:`~fw1394.transport.bus_port.BusPort` (its express path), one through the
+:class:`~fw1394.host.bus_port.BusPort` (its express path), one through the
 general start-and-wait path BusPort used before. The station answers each
 request from a real responder (thesis, IEEE 1394 or JHU policy, so concatenated,
 split and unified answers), and the script spoils some answers: busy acks,
@@ -32,18 +32,18 @@ from hypothesis import strategies as st
 from fw1394.boards.memory.board import MemorySpace
 from fw1394.engine import Responder, TransactionEvent, TransactionFailed
 from fw1394.engine.policy import POLICIES
+from fw1394.host.bus_port import BusPort
 from fw1394.packets import AckCode
 from fw1394.packets.ack import ACK_BYTES
 from fw1394.packets.frame import ACK_FRAME_FORMAT, FRAME_TRAILER_SIZE
 from fw1394.packets.nodeid import node_id
 from fw1394.transport import bus_host, express, link
 from fw1394.transport.bus_host import BusError, TransactionError
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.config import BusConfig
-from fw1394.transport.launch import LaunchedBus
 from fw1394.transport.link import ResponderLink
-from fw1394.transport.membership import BusReset, Timing
-from fw1394.transport.wire import FrameHeader, FrameKind, MemberInfo
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import BusReset, Timing
+from fw1394.transport.sansio.wire import FrameHeader, FrameKind, MemberInfo
+from fw1394.transport.supervision.launch import LaunchedBus
 
 NODE, HOST = 0, 1
 MEMORY = 64

@@ -10,7 +10,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from fw1394.transport.idle import (
+from fw1394.transport.media.idle import (
     ADAPTIVE,
     BLOCK,
     ENVIRONMENT,

@@ -19,8 +19,8 @@ from typing import Any
 
 import pytest
 
-from fw1394.transport.seal import Sealer, Verifier
-from fw1394.transport.wire import (
+from fw1394.transport.sansio.seal import Sealer, Verifier
+from fw1394.transport.sansio.wire import (
     AckPayload,
     FrameError,
     FrameHeader,

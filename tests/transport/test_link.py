@@ -31,9 +31,9 @@ from fw1394.packets import (
 )
 from fw1394.packets.fast import decode_packet, encode_packet
 from fw1394.transport.link import BusRefusedError, RequesterLink, ResponderLink
-from fw1394.transport.membership import BusReset, Excluded, Refused
+from fw1394.transport.sansio.membership import BusReset, Excluded, Refused
+from fw1394.transport.sansio.wire import FrameHeader, FrameTooLarge
 from fw1394.transport.station import Station
-from fw1394.transport.wire import FrameHeader, FrameTooLarge
 
 # Wire bytes of acks (IEEE 1394-1995 §6.2.4.3: code, then its one's complement).
 ACK_COMPLETE_BYTE = 0x1E

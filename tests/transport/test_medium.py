@@ -9,10 +9,10 @@ import socket
 
 import pytest
 
-from fw1394.transport.config import SHARDS, BusConfig
-from fw1394.transport.idle import ADAPTIVE
-from fw1394.transport.medium import Medium
-from fw1394.transport.wire import EVERY_MEMBER, FrameHeader, FrameKind
+from fw1394.transport.media.idle import ADAPTIVE
+from fw1394.transport.media.udp import Medium
+from fw1394.transport.sansio.config import SHARDS, BusConfig
+from fw1394.transport.sansio.wire import EVERY_MEMBER, FrameHeader, FrameKind
 
 SO_DETACH_FILTER = 27
 

@@ -17,9 +17,9 @@ from pathlib import Path
 import pytest
 from adapter_support import AdapterBus, adapter_bus
 
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.membership import Timing
-from fw1394.transport.runtime import MEMBERS_DIR, read_members
+from fw1394.host.bus_port import BusPort
+from fw1394.transport.sansio.membership import Timing
+from fw1394.transport.supervision.runtime import MEMBERS_DIR, read_members
 
 
 def record(folder: Path, pid: int, member: int, suffix: str = ".json") -> Path:

@@ -15,8 +15,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fw1394.transport.membership import MAX_GENERATION, Membership, Role, Timing
-from fw1394.transport.wire import FrameError, FrameHeader, FrameKind, MemberInfo
+from fw1394.transport.sansio.membership import MAX_GENERATION, Membership, Role, Timing
+from fw1394.transport.sansio.wire import FrameError, FrameHeader, FrameKind, MemberInfo
 
 ENTRY = 24
 TABLE_HEAD = 8

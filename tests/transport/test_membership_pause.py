@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from fake_bus import TAG, FakeBus, settled
 
-from fw1394.transport.membership import BusReset, Role
-from fw1394.transport.wire import EVERY_MEMBER, FrameHeader, FrameKind
+from fw1394.transport.sansio.membership import BusReset, Role
+from fw1394.transport.sansio.wire import EVERY_MEMBER, FrameHeader, FrameKind
 
 
 def test_a_member_that_did_not_run_never_takes_over() -> None:

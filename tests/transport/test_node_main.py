@@ -12,10 +12,10 @@ from pathlib import Path
 import pytest
 from bus_support import bus_name, stop, wait_until_gone
 
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.config import BusConfig
-from fw1394.transport.launch import LaunchedBus
-from fw1394.transport.membership import Timing
+from fw1394.host.bus_port import BusPort
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import Timing
+from fw1394.transport.supervision.launch import LaunchedBus
 
 TIMING = Timing(heartbeat=0.1, lease=2.0)
 ARGS = ("--heartbeat", "0.1", "--lease", "2.0")

@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 from fw1394.cli.main import main
-from fw1394.transport.runtime import RuntimeRootError, prepare, runtime_root
+from fw1394.transport.supervision.runtime import RuntimeRootError, prepare, runtime_root
 
 OTHER_UID = 12345
 needs_root = pytest.mark.skipif(os.getuid() != 0, reason="needs root to play another user")

@@ -12,10 +12,10 @@ import pytest
 from bus_support import bus_name
 
 from fw1394.errors import UsageError
-from fw1394.transport import media
-from fw1394.transport.config import BusConfig
-from fw1394.transport.idle import BLOCK
-from fw1394.transport.shared_medium import RING_SIZE, SharedMedium, segment_path
+from fw1394.transport.media import choice as media
+from fw1394.transport.media.idle import BLOCK
+from fw1394.transport.media.shared_memory import RING_SIZE, SharedMedium, segment_path
+from fw1394.transport.sansio.config import BusConfig
 
 _CONTEXT = multiprocessing.get_context("fork")
 

@@ -34,10 +34,10 @@ from pathlib import Path
 import pytest
 from bus_support import bus_name
 
-from fw1394.transport import shared_medium
-from fw1394.transport.config import BusConfig
-from fw1394.transport.idle import ADAPTIVE, BLOCK, SPIN
-from fw1394.transport.shared_medium import RING_SIZE, SharedMedium
+from fw1394.transport.media import shared_memory as shared_medium
+from fw1394.transport.media.idle import ADAPTIVE, BLOCK, SPIN
+from fw1394.transport.media.shared_memory import RING_SIZE, SharedMedium
+from fw1394.transport.sansio.config import BusConfig
 
 pytestmark = pytest.mark.process
 

@@ -22,11 +22,11 @@ import pytest
 from bus_support import bus_name, stop, wait_until_gone
 
 from fw1394.boards.snake2010.spec import REG_STATUS, Device, channel_register
+from fw1394.host.bus_port import BusPort
 from fw1394.transport.bus_host import TransactionError
-from fw1394.transport.bus_port import BusPort
-from fw1394.transport.config import BusConfig
-from fw1394.transport.launch import LaunchedBus
-from fw1394.transport.membership import Timing
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import Timing
+from fw1394.transport.supervision.launch import LaunchedBus
 
 NODE_TIMING = ("--heartbeat", "0.1", "--lease", "2.0")
 

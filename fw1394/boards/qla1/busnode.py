@@ -51,7 +51,6 @@ from fw1394.packets import BlockWriteRequest, Request, Response
 from fw1394.packets.eth1394 import MULTICAST_GROUP
 from fw1394.packets.fast import encode_packet
 from fw1394.packets.nodeid import BROADCAST_ID, BROADCAST_PHY
-from fw1394.transport.config import BusConfig
 from fw1394.transport.eth1394_addresses import (
     MULTICAST_FIRMWARE,
     Endpoint,
@@ -62,10 +61,11 @@ from fw1394.transport.eth1394_addresses import (
 )
 from fw1394.transport.faults import FaultConfig
 from fw1394.transport.link import ACK, ASYNC_PACKET, ResponderLink
-from fw1394.transport.membership import BusReset, Timing
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import BusReset, Timing
+from fw1394.transport.sansio.wire import FrameHeader, FrameKind, parse_ack
 from fw1394.transport.station import Station
 from fw1394.transport.supervision.procs import run_until_signalled
-from fw1394.transport.wire import FrameHeader, FrameKind, parse_ack
 
 POLL = 0.005
 

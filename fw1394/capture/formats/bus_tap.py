@@ -28,10 +28,10 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 from fw1394.capture.formats.record import BusRecord, RecordType
-from fw1394.transport.config import BusConfig
-from fw1394.transport.media import open_medium
-from fw1394.transport.seal import DropCounts, Verifier, key_for
-from fw1394.transport.wire import (
+from fw1394.transport.media.choice import open_medium
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.seal import DropCounts, Verifier
+from fw1394.transport.sansio.wire import (
     BROADCAST_PHY,
     HEADER_SIZE,
     NO_PHY,
@@ -41,6 +41,7 @@ from fw1394.transport.wire import (
     parse_ack,
     parse_header,
 )
+from fw1394.transport.supervision.bus_key import key_for
 
 #: How long an asynchronous packet waits for its ack before it is passed on without.
 DEFAULT_ACK_WAIT = 0.05

@@ -36,7 +36,7 @@ from fw1394.packets.bitfields import FlatField, flatten
 from fw1394.packets.eth1394 import CONTROL_WORD, EXTRA_BYTES, EXTRA_SIZE, UDP_PORT
 from fw1394.packets.fields import BitField as LayoutBit
 from fw1394.packets.phy import PHY_CLASSES, phy_class_of
-from fw1394.transport.config import DEFAULT_BUS
+from fw1394.transport.sansio.config import DEFAULT_BUS
 
 KERNEL_NAMES = {"destination_id": "dst_id", "source_id": "src_id"}
 _HEX = {"dst_id", "src_id", "offset", "quadlet_data", "header_crc", "reserved"}

@@ -1,0 +1,548 @@
+"""A bus's host adapter: the one host member every program on this machine shares.
+
+On a real 1394 bus the PC is one node (its OHCI link) however many programs
+use it; a program opening ``/dev/fw*`` causes no bus reset. The adapter is
+that node for a virtual bus: ``fw1394 bus up`` starts it as
+``python -m fw1394.transport.host_adapter.server``, it joins the bus once as a
+:class:`~fw1394.transport.bus_host.BusHost`, and listens on the Unix socket
+``adapter.sock`` (mode 0600) in the bus's runtime directory. Clients
+(``fw1394 read``, the host library's ``AdapterPort``, scripts) send requests
+in the framing of :mod:`fw1394.transport.host_adapter.protocol`; the adapter runs
+them on its own transaction labels, so several clients with several
+transactions each share the 64 labels of one node, and answers each when its
+transaction ends. Clients come and go without the bus noticing.
+
+``send`` puts a client's packet on the bus as it is, malformed or not (the
+adapter's frame header names the adapter as sender, so answers come back to
+it), and reports the ack and the response that came back for it.
+
+A connection starts with ``hello`` (the protocol version), and every request
+runs only in the bus generation it was addressed in: one from an earlier
+generation is answered ``stale`` and never sent, since its physical ID may
+belong to another node now (``docs/host-adapter.md``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import math
+import os
+import select
+import signal
+import socket
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from types import FrameType
+
+from fw1394.engine import LockCompleted, ReadCompleted, TransactionFailed
+from fw1394.packets.accessors import TCODE, TLABEL
+from fw1394.packets.ack import ack_code
+from fw1394.packets.enums import AckCode
+from fw1394.packets.tcodes import RESPONSE_TCODES
+from fw1394.transport.bus_host import BusError, BusHost, StaleGenerationError
+from fw1394.transport.copies import HostLink
+from fw1394.transport.host_adapter.protocol import (
+    CHOSEN,
+    NONE,
+    STALE,
+    VERSIONS,
+    FrameBuffer,
+    Op,
+    ProtocolError,
+    Reply,
+    Request,
+    Status,
+    choose_version,
+    parse_request,
+)
+from fw1394.transport.host_adapter.services import NodeServices, is_request
+from fw1394.transport.link import ACK, ACK_BYTES, ACK_SIZE, ASYNC_PACKET
+from fw1394.transport.sansio.config import BusConfig
+from fw1394.transport.sansio.membership import Timing
+from fw1394.transport.sansio.wire import ACK_PAYLOAD, NO_PHY, FrameHeader, pack_table
+from fw1394.transport.supervision.observe import BusView, watch
+from fw1394.transport.supervision.procs import die_with_parent
+from fw1394.transport.supervision.runtime import adapter_socket, prepare
+
+ADAPTER_MODULE = "fw1394.transport.host_adapter.server"
+PID_FILE = "adapter.pid"
+#: The adapter wakes at least this often (timers of the bus and of raw sends).
+_LONGEST_SLEEP = 0.05
+#: A client that does not take its replies within this long is dropped.
+_SEND_TIMEOUT = 2.0
+
+
+@dataclass
+class RawSend:
+    """A packet a client put on the bus, and what came back for it so far."""
+
+    client: Client
+    request: int
+    destination: int
+    sequence: int
+    #: The packet's tlabel and tcode, when it is long enough to have them.
+    tlabel: int | None
+    deadline: float
+    expects_response: bool
+    ack: int | None = None
+    response: bytes = b""
+
+    @property
+    def done(self) -> bool:
+        if self.response:
+            return True
+        if self.ack is None:
+            return False
+        return not (self.expects_response and self.ack == AckCode.ack_pending)
+
+
+@dataclass(eq=False)
+class Client:
+    sock: socket.socket
+    frames: FrameBuffer = field(default_factory=FrameBuffer)
+    #: The protocol version agreed in ``hello``; None before it.
+    version: int | None = None
+
+
+class AdapterLink(HostLink):
+    """The host's link, which first hands raw sends the answers meant for them."""
+
+    def __init__(self, host: BusHost) -> None:
+        super().__init__(host.requester, host.station.send, host.station)
+        self.raw: dict[int, RawSend] = {}  # by the frame sequence number it went out in
+        #: Requests other nodes address to the adapter's own node go here.
+        self.on_request: Callable[[FrameHeader, bytes], None] | None = None
+
+    def take(self, header: FrameHeader, payload: bytes, now: float) -> None:
+        if self.raw and self._for_raw(header, payload):
+            return
+        if header.kind == ASYNC_PACKET and self.on_request is not None and is_request(payload):
+            self.on_request(header, payload)
+            return
+        super().take(header, payload, now)
+
+    def _for_raw(self, header: FrameHeader, payload: bytes) -> bool:
+        if header.kind == ACK and len(payload) >= ACK_SIZE:
+            byte, _, _, sequence = ACK_PAYLOAD.unpack_from(payload)
+            pending = self.raw.get(sequence)
+            if pending is None or pending.destination != header.sender_phy:
+                return False
+            pending.ack = ack_code(byte)
+            pending.response = payload[ACK_SIZE:]
+            return True
+        if header.kind != ASYNC_PACKET or len(payload) < 4:
+            return False
+        if TCODE.of_bytes(payload) not in RESPONSE_TCODES:
+            return False
+        tlabel = TLABEL.of_bytes(payload)
+        for pending in self.raw.values():
+            matches = pending.tlabel is None or pending.tlabel == tlabel
+            if pending.destination == header.sender_phy and not pending.response and matches:
+                pending.response = payload
+                # A link acks every response it takes.
+                ack = ACK_PAYLOAD.pack(ACK_BYTES[AckCode.ack_complete], tlabel, 0, header.sequence)
+                self.send(ACK, header.sender_phy, ack)
+                return True
+        return False
+
+
+class AdapterHost(BusHost):
+    """A :class:`BusHost` served from an event loop rather than from blocking calls."""
+
+    def __init__(self, config: BusConfig, **kw: object) -> None:
+        super().__init__(config, **kw)  # type: ignore[arg-type]
+        self.link = self.adapter_link = link = AdapterLink(self)
+        #: Raw sends waiting for their answers, by frame sequence number.
+        self.raw = link.raw
+        self.link.on_reset = self._on_reset
+        self.link.on_progress = self._collect
+        self._flush_requests = self.link.flush
+
+    @property
+    def bus_socket(self) -> socket.socket:
+        return self.station.medium.sock
+
+    def next_wake(self) -> float:
+        due = min(self.link.due, self.station.wake_by)
+        deadline = self.requester.next_deadline()
+        if deadline is not None:
+            due = min(due, deadline)
+        for pending in self.raw.values():
+            due = min(due, pending.deadline)
+        return due
+
+    def serve(self) -> None:
+        """Take every queued frame, run every due timer; never waits."""
+        station, link, requester = self.station, self.link, self.requester
+        now = time.monotonic()
+        for header, payload in station.catch_up():
+            link.receive(header, payload, now)
+        link.apply_changes()
+        # An answer frees a label: a request queued for one goes out now, not at the
+        # next timer (a concatenated response does not flush the link by itself).
+        self._flush_requests()
+        if now >= link.due or now >= station.wake_by:
+            link.service(now)
+        due = requester.next_deadline()
+        if due is not None and now >= due:
+            requester.handle_timer(now)
+            self._flush_requests()
+            self._collect()
+        self._served_at = now
+        # Unsolicited responses and stray acks: nobody here asks for them.
+        self._other_events.clear()
+
+    def finished(self, tid: int) -> object | None:
+        return self._finished.pop(tid, None)
+
+    def send_raw(self, destination: int, packet: bytes) -> int:
+        """Put ``packet`` on the bus to physical ID ``destination``; its frame's sequence."""
+        self.on_bus()
+        return self.station.send(ASYNC_PACKET, destination, packet)
+
+
+class Adapter:
+    """The adapter's event loop: the bus socket, the listening socket, the clients."""
+
+    def __init__(self, host: AdapterHost, path: Path) -> None:
+        self.host = host
+        self.path = path
+        self.listener = _listen(path)
+        self.clients: dict[socket.socket, Client] = {}
+        self.pending: dict[int, tuple[Client, int]] = {}  # transaction -> client, request
+        #: Transactions of clients that left before they ended: their ends are dropped.
+        self.orphans: set[int] = set()
+        self.stopping = False
+        self.services = NodeServices(self)
+        host.adapter_link.on_request = self.services.from_bus
+
+    def close(self) -> None:
+        for sock in self.clients:
+            sock.close()
+        self.listener.close()
+        with contextlib.suppress(FileNotFoundError):
+            self.path.unlink()
+        self.host.close()
+
+    def run(self) -> None:
+        host = self.host
+        while not self.stopping:
+            wait = min(_LONGEST_SLEEP, max(0.0, host.next_wake() - time.monotonic()))
+            watched = [host.bus_socket, self.listener, *self.clients]
+            try:
+                readable, _, _ = select.select(watched, [], [], wait)
+            except InterruptedError:
+                continue
+            host.serve()
+            self.services.after_serve()
+            if self.listener in readable:
+                self._accept()
+            for sock in readable:
+                client = self.clients.get(sock)
+                if client is not None:
+                    self._read(client)
+            self._answer_finished()
+
+    # -- clients ----------------------------------------------------------------------
+    def _accept(self) -> None:
+        try:
+            sock, _ = self.listener.accept()
+        except OSError:
+            return
+        sock.settimeout(_SEND_TIMEOUT)
+        self.clients[sock] = Client(sock)
+
+    def _drop(self, client: Client) -> None:
+        if self.clients.pop(client.sock, None) is None:
+            return
+        client.sock.close()
+        self.services.dropped(client)
+        self.orphans |= {t for t, p in self.pending.items() if p[0] is client}
+        self.pending = {t: p for t, p in self.pending.items() if p[0] is not client}
+        raw = self.host.raw
+        for sequence in [s for s, r in raw.items() if r.client is client]:
+            del raw[sequence]
+
+    def _read(self, client: Client) -> None:
+        try:
+            data = client.sock.recv(1 << 16)
+        except OSError:
+            data = b""
+        if not data:
+            self._drop(client)
+            return
+        try:
+            bodies = client.frames.feed(data)
+            for body in bodies:
+                request = parse_request(body)
+                if client.version is None:
+                    if not self._greet(client, request):
+                        return
+                    continue
+                try:
+                    self._handle(client, request)
+                except Exception as error:  # one client's request never ends the bus's adapter
+                    detail = f"adapter error: {type(error).__name__}: {error}"
+                    self._reply(client, Reply(request.request, Status.refused, detail=detail))
+        except ProtocolError as error:
+            self._reply(client, Reply(0, Status.refused, detail=str(error)))
+            self._drop(client)
+
+    def _reply(self, client: Client, reply: Reply) -> None:
+        host = self.host
+        phy = host.phy_id
+        reply = Reply(
+            reply.request,
+            reply.status,
+            host.generation,
+            NO_PHY if phy is None else phy,
+            reply.ack,
+            reply.rcode,
+            reply.outcome_unknown,
+            reply.reason,
+            reply.detail,
+            reply.data,
+        )
+        try:
+            client.sock.sendall(reply.pack())
+        except OSError:
+            self._drop(client)
+
+    def _greet(self, client: Client, request: Request) -> bool:
+        """The first request of a connection: ``hello``; False if the client was dropped."""
+        spoken = ", ".join(str(v) for v in sorted(VERSIONS))
+        version = choose_version(request) if request.op is Op.hello else None
+        if version is None:
+            if request.op is Op.hello:
+                detail = f"no protocol version in common: this adapter speaks {spoken}"
+            else:
+                detail = f"the first request must be hello (this adapter speaks version {spoken})"
+            self._reply(client, Reply(request.request, Status.refused, detail=detail))
+            self._drop(client)
+            return False
+        client.version = version
+        chosen = CHOSEN.build({"version": version})
+        self._reply(client, Reply(request.request, Status.ok, data=chosen))
+        return True
+
+    # -- requests ---------------------------------------------------------------------
+    def _handle(self, client: Client, request: Request) -> None:
+        host = self.host
+        try:
+            if request.op is Op.info:
+                host.wait_ready()
+                table = pack_table(host.members)
+                self._reply(client, Reply(request.request, Status.ok, data=table))
+                return
+            if request.op is Op.hello:
+                raise ValueError("hello comes once, first")
+            # Pinned: a request whose generation has ended is never sent (its
+            # physical ID may be another node's now).
+            with host.addressed_in(request.generation):
+                if request.op is Op.send:
+                    self._send(client, request)
+                    return
+                if self.services.handle(client, request):
+                    return
+                tid = self._start(request)
+        except StaleGenerationError as error:
+            addressed = STALE.pack(request.generation)
+            stale = Reply(
+                request.request, Status.stale, detail=error.failure.detail, data=addressed
+            )
+            self._reply(client, stale)
+            return
+        except (ValueError, BusError) as error:
+            self._reply(client, Reply(request.request, Status.refused, detail=str(error)))
+            return
+        self.pending[tid] = (client, request.request)
+
+    def _start(self, request: Request) -> int:
+        host, node, offset = self.host, request.node, request.offset
+        if request.op is Op.read:
+            if request.quadlet:
+                return host.start_read_quadlet(node, offset)
+            return host.start_read_block(node, offset, request.length)
+        if request.op is Op.write:
+            if request.quadlet:
+                if len(request.data) != 4:
+                    raise ValueError("a quadlet write carries 4 bytes")
+                return host.start_write_quadlet(node, offset, int.from_bytes(request.data, "big"))
+            return host.start_write_block(node, offset, request.data)
+        if request.op is Op.lock:
+            return host.start_lock(
+                node, offset, request.extended_tcode, request.argument, request.data
+            )
+        raise ValueError(f"unknown operation {request.op}")
+
+    def _send(self, client: Client, request: Request) -> None:
+        packet = request.data
+        if not packet:
+            raise ValueError("no packet to send")
+        tcode = TCODE.of_bytes(packet) if len(packet) >= 4 else None
+        sequence = self.host.send_raw(request.node, packet)
+        self.host.raw[sequence] = RawSend(
+            client,
+            request.request,
+            request.node,
+            sequence,
+            TLABEL.of_bytes(packet) if len(packet) >= 4 else None,
+            time.monotonic() + max(0.0, min(request.wait, 10.0)),
+            expects_response=tcode is not None and tcode not in RESPONSE_TCODES,
+        )
+
+    def _answer_finished(self) -> None:
+        host = self.host
+        for tid in [t for t in self.orphans if t in host._finished]:
+            host.finished(tid)
+            self.orphans.discard(tid)
+        for tid in [t for t in self.pending if t in host._finished]:
+            # A reply that finds its client gone drops the client's other requests.
+            asked = self.pending.pop(tid, None)
+            if asked is None:
+                continue
+            self._reply(asked[0], _reply_of(asked[1], host.finished(tid)))
+        raw = host.raw
+        if raw:
+            now = time.monotonic()
+            for sequence in [s for s, r in raw.items() if r.done or now >= r.deadline]:
+                pending = raw.pop(sequence, None)
+                if pending is None:
+                    continue
+                ack = NONE if pending.ack is None else pending.ack
+                reply = Reply(pending.request, Status.ok, ack=ack, data=pending.response)
+                self._reply(pending.client, reply)
+
+
+def _reply_of(request: int, event: object) -> Reply:
+    if isinstance(event, ReadCompleted):
+        return Reply(request, Status.ok, data=event.data)
+    if isinstance(event, LockCompleted):
+        return Reply(request, Status.ok, data=event.old_value)
+    if isinstance(event, TransactionFailed):
+        rcode = NONE if event.rcode is None else event.rcode
+        return Reply(
+            request,
+            Status.failed,
+            rcode=rcode,
+            outcome_unknown=event.outcome_unknown,
+            reason=str(event.reason),
+            detail=event.detail,
+        )
+    return Reply(request, Status.ok)
+
+
+def _listen(path: Path) -> socket.socket:
+    """A listening socket at ``path`` only this user may open (like a 0600 device node)."""
+    if path.exists():
+        probe = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        try:
+            probe.connect(str(path))
+        except OSError:
+            path.unlink()  # left by an adapter that died
+        else:
+            raise OSError(f"an adapter already listens on {path}")
+        finally:
+            probe.close()
+    listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    old_mask = os.umask(0o177)
+    try:
+        listener.bind(str(path))
+    finally:
+        os.umask(old_mask)
+    path.chmod(0o600)
+    listener.listen(64)
+    return listener
+
+
+def wait_adapter(config: BusConfig, directory: Path, timeout: float) -> BusView | None:
+    """The bus view once the adapter of ``directory`` listens and is a member; None if not."""
+    limit = time.monotonic() + timeout
+    path = adapter_socket(directory)
+    while not path.exists():
+        if time.monotonic() > limit:
+            return None
+        time.sleep(0.02)
+    pid = adapter_pid(directory)
+    if pid is None:
+        return None
+    remaining = max(0.1, limit - time.monotonic())
+    return watch(config, remaining, lambda view: any(m.pid == pid for m in view.members))
+
+
+def adapter_pid(directory: Path) -> int | None:
+    """The pid of the adapter of bus directory ``directory``, if one runs."""
+    try:
+        return int((directory / PID_FILE).read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def parse_args(argv: list[str]) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(
+        prog="python -m fw1394.transport.host_adapter.server",
+        description="The host adapter of a virtual bus (started by `fw1394 bus up`).",
+        allow_abbrev=False,
+    )
+    parser.add_argument("--name", required=True)
+    parser.add_argument("--interface", default="127.0.0.1")
+    parser.add_argument("--ttl", type=int, default=0)
+    parser.add_argument("--heartbeat", type=float, default=None)
+    parser.add_argument("--lease", type=float, default=None)
+    parser.add_argument(
+        "--ack-timeout", type=float, default=1.0, help="seconds a request waits for its ack"
+    )
+    parser.add_argument(
+        "--split-timeout", type=float, default=1.0, help="seconds a request waits for its response"
+    )
+    parser.add_argument("--root", type=Path, default=None)
+    parser.add_argument("--parent-pid", type=int, default=None)
+    # A supervisor hands on its node options; the adapter takes only the bus's.
+    args, _ = parser.parse_known_args(argv)
+    return args
+
+
+def main(argv: list[str]) -> int:
+    args = parse_args(argv)
+    if args.parent_pid is not None:
+        die_with_parent(args.parent_pid)
+    config = BusConfig(args.name, interface=args.interface, ttl=args.ttl)
+    timing = Timing()
+    if args.heartbeat is not None:
+        timing = replace(timing, heartbeat=args.heartbeat)
+    if args.lease is not None:
+        timing = replace(timing, lease=args.lease)
+    directory = prepare(args.name, args.root)
+    host = AdapterHost(
+        config, timing=timing, ack_timeout=args.ack_timeout, split_timeout=args.split_timeout
+    )
+    try:
+        host.wait_ready(timeout=math.inf if args.parent_pid else None)
+        # The pid first: whoever sees the socket can tell the adapter's member by it.
+        (directory / PID_FILE).write_text(str(os.getpid()))
+        adapter = Adapter(host, adapter_socket(directory))
+    except (BusError, OSError) as error:
+        host.close()
+        print(f"fw1394 adapter: {error}", file=sys.stderr)
+        return 1
+
+    def stop(signum: int, frame: FrameType | None) -> None:
+        adapter.stopping = True
+
+    signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGINT, stop)
+    try:
+        adapter.run()
+    finally:
+        adapter.close()
+        with contextlib.suppress(FileNotFoundError):
+            (directory / PID_FILE).unlink()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,134 @@
+"""Packet details pinned to the standard's numbers and bit layouts, written out here.
+
+* IEEE 1394-1995 §6.2.4.1 / table 6-13: ack codes; their two top bits say complete
+  or pending (00), busy (01), tardy (10) or error (11).
+* §6.2: a node ID is a 10-bit bus ID and a 6-bit physical ID; tlabel is 6 bits.
+* §4.3.4.1: self-ID packet #0 (port status 11 child, 10 parent, 01 not connected).
+* IEEE 1394a-2000 §5.5.4 (extended PHY packets): the type codes.
+* The JHU FPGA's extra bytes count 49.152 MHz ticks (spec: FPGA_TotalTime = v / 49.152e6).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from fw1394.packets import (
+    AckCode,
+    BlockWriteRequest,
+    PacketError,
+    QuadletReadRequest,
+    encode,
+)
+from fw1394.packets.ack import Ack
+from fw1394.packets.enums import PhyPacketType
+from fw1394.packets.eth1394 import ExtraBytes
+from fw1394.packets.fast import encode_packet
+from fw1394.packets.phy import RemoteAccessPacket, SelfIdPacket, decode_phy
+from fw1394.packets.render import field_rows, hex_preview, summary
+
+
+def test_extended_phy_packet_types_are_the_1394a_numbers() -> None:
+    assert {t.name: t.value for t in PhyPacketType} == {
+        "ping": 0x0,
+        "remote_access_base": 0x1,
+        "remote_reply_base": 0x3,
+        "remote_access_paged": 0x5,
+        "remote_reply_paged": 0x7,
+        "remote_command": 0x8,
+        "remote_confirmation": 0xA,
+        "resume": 0xF,
+    }
+
+
+# The standard's ack codes and their class (the others are reserved).
+ACK_CLASSES = {
+    0x1: "complete", 0x2: "pending",
+    0x4: "busy", 0x5: "busy", 0x6: "busy",
+    0xB: "tardy",
+    0xC: "error", 0xD: "error", 0xE: "error", 0xF: "error",
+}  # fmt: skip
+
+
+@pytest.mark.parametrize(("code", "kind"), ACK_CLASSES.items())
+def test_an_ack_is_busy_or_an_error_by_its_two_top_bits(code: int, kind: str) -> None:
+    ack = Ack(code)
+    assert (ack.is_busy, ack.is_error) == (kind == "busy", kind == "error")
+    assert AckCode(code).name.startswith("ack_" + ("busy" if kind == "busy" else ""))
+
+
+def test_the_destination_node_is_the_low_six_bits_of_the_node_id() -> None:
+    # Bus 0x2AB, node 0x2D: 0x2AB << 6 | 0x2D.
+    request = QuadletReadRequest(destination_id=0xAAED, tlabel=1, offset=0)
+    assert (request.destination_bus, request.destination_node) == (0x2AB, 0x2D)
+
+
+def test_tlabel_63_encodes_into_its_six_bits_and_64_is_refused() -> None:
+    raw = encode(QuadletReadRequest(destination_id=0xFFC0, tlabel=63, offset=0))
+    # Quadlet 0: destination_ID(16) tl(6) rt(2) tcode(4) pri(4); tcode 4.
+    assert raw[:4] == (0xFFC0 << 16 | 63 << 10 | 4 << 4).to_bytes(4, "big")
+    with pytest.raises(PacketError, match="tlabel"):
+        encode(QuadletReadRequest(destination_id=0xFFC0, tlabel=64, offset=0))
+    # The engine's generated encoder: same bytes, same refusal.
+    assert encode_packet(QuadletReadRequest(destination_id=0xFFC0, tlabel=63, offset=0)) == raw
+    with pytest.raises(PacketError, match="tlabel"):
+        encode_packet(QuadletReadRequest(destination_id=0xFFC0, tlabel=64, offset=0))
+
+
+def test_a_data_block_shorter_than_its_data_length_is_a_problem() -> None:
+    short = BlockWriteRequest(
+        destination_id=0xFFC0, tlabel=1, offset=0, data=b"abcd", data_length=8
+    )
+    assert [p.field for p in short.problems] == ["data"]
+    whole = BlockWriteRequest(
+        destination_id=0xFFC0, tlabel=1, offset=0, data=b"abcd", data_length=4
+    )
+    assert whole.problems == ()
+
+
+def test_fpga_total_time_is_in_49_152_mhz_ticks() -> None:
+    assert ExtraBytes(total_ticks=49152).total_seconds == pytest.approx(1e-3)
+
+
+def test_phy_packets_take_keyword_arguments_only() -> None:
+    with pytest.raises(TypeError):
+        SelfIdPacket(1)  # type: ignore[call-arg]
+
+
+def self_id(phy: int, port0: int, port1: int, port2: int) -> bytes:
+    quadlet = (
+        0b10 << 30 | phy << 24 | 1 << 22 | 63 << 16 | 2 << 14 | port0 << 6 | port1 << 4 | port2 << 2
+    )
+    return quadlet.to_bytes(4, "big") + (quadlet ^ 0xFFFFFFFF).to_bytes(4, "big")
+
+
+def test_self_id_ports_are_shown_by_their_status() -> None:
+    packet = decode_phy(self_id(phy=1, port0=0b10, port1=0b11, port2=0b01))
+    text = summary(packet)
+    for shown in ("phy_id=1", "port0=parent", "port1=child", "port2=not_connected", "speed=S400"):
+        assert shown in text.split()
+    meanings = {row[0]: row[2] for row in field_rows(packet)}
+    assert (meanings["port0"], meanings["port1"], meanings["port2"]) == (
+        "parent",
+        "child",
+        "not_connected",
+    )
+
+
+def test_a_remote_access_port_is_a_port_number_not_a_port_status() -> None:
+    packet = RemoteAccessPacket(phy_id=2, type=0x5, page=1, port=3, register=4)
+    assert "port=3" in summary(packet).split()
+    rows = {row[0]: (row[1], row[2]) for row in field_rows(packet)}
+    assert rows["port"] == ("3", "")
+
+
+def test_an_absent_crc_is_shown_as_absent() -> None:
+    rows = {row[0]: row[1] for row in field_rows(QuadletReadRequest(destination_id=1, offset=0))}
+    assert rows["header_crc"] == "absent"
+    assert rows["offset"] == "0x0" and rows["tlabel"] == "0"
+
+
+def test_hex_preview_shows_whole_quadlets_from_the_first_byte() -> None:
+    assert hex_preview(bytes(range(6))) == "00010203 0405"
+    assert hex_preview(bytes(range(40))) == (
+        "00010203 04050607 08090a0b 0c0d0e0f ... (+6 quadlets)"
+    )
