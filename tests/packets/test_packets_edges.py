@@ -23,6 +23,7 @@ from fw1394.packets.ack import Ack
 from fw1394.packets.enums import PhyPacketType
 from fw1394.packets.eth1394 import ExtraBytes
 from fw1394.packets.fast import encode_packet
+from fw1394.packets.fields import FieldSpec, Quadlets
 from fw1394.packets.phy import RemoteAccessPacket, SelfIdPacket, decode_phy
 from fw1394.packets.render import field_rows, hex_preview, summary
 
@@ -132,3 +133,11 @@ def test_hex_preview_shows_whole_quadlets_from_the_first_byte() -> None:
     assert hex_preview(bytes(range(40))) == (
         "00010203 04050607 08090a0b 0c0d0e0f ... (+6 quadlets)"
     )
+
+
+@pytest.mark.parametrize("widths", [(16, 15), (16, 17), (8,)])
+def test_a_layout_quadlet_must_hold_exactly_32_bits(widths: tuple[int, ...]) -> None:
+    specs: list[FieldSpec] = [(f"f{i}", width) for i, width in enumerate(widths)]
+    with pytest.raises(ValueError, match="32 bits"):
+        Quadlets(specs)
+    assert Quadlets([("a", 16), ("b", 16)], [("c", 32)]).count == 2
