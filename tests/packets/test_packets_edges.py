@@ -1,10 +1,11 @@
 """Packet details pinned to the standard's numbers and bit layouts, written out here.
 
-* IEEE 1394-1995 §6.2.4.1 / table 6-13: ack codes; their two top bits say complete
+* IEEE 1394-1995, the ack codes: their two top bits say complete
   or pending (00), busy (01), tardy (10) or error (11).
-* §6.2: a node ID is a 10-bit bus ID and a 6-bit physical ID; tlabel is 6 bits.
-* §4.3.4.1: self-ID packet #0 (port status 11 child, 10 parent, 01 not connected).
-* IEEE 1394a-2000 §5.5.4 (extended PHY packets): the type codes.
+* IEEE 1394-1995, packet headers: a node ID is a 10-bit bus ID and a 6-bit physical ID;
+  tlabel is 6 bits.
+* IEEE 1394-1995, self-ID packet #0 (port status 11 child, 10 parent, 01 not connected).
+* IEEE 1394a-2000, extended PHY packets: the type codes.
 * The JHU FPGA's extra bytes count 49.152 MHz ticks (spec: FPGA_TotalTime = v / 49.152e6).
 """
 
@@ -15,6 +16,8 @@ import pytest
 from fw1394.packets import (
     AckCode,
     BlockWriteRequest,
+    ExtendedTCode,
+    LockRequest,
     PacketError,
     QuadletReadRequest,
     encode,
@@ -141,3 +144,29 @@ def test_a_layout_quadlet_must_hold_exactly_32_bits(widths: tuple[int, ...]) -> 
     with pytest.raises(ValueError, match="32 bits"):
         Quadlets(specs)
     assert Quadlets([("a", 16), ("b", 16)], [("c", 32)]).count == 2
+
+
+@pytest.mark.parametrize(
+    ("extended_tcode", "argument_size"),
+    [
+        (ExtendedTCode.mask_swap, 4),
+        (ExtendedTCode.compare_swap, 4),
+        (ExtendedTCode.fetch_add, 0),
+        (ExtendedTCode.little_add, 0),
+        (ExtendedTCode.bounded_add, 4),
+        (ExtendedTCode.wrap_add, 4),
+    ],
+)
+def test_a_lock_request_is_its_argument_then_its_data(
+    extended_tcode: ExtendedTCode, argument_size: int
+) -> None:
+    # IEEE 1394-1995 lock requests: fetch_add and little_add carry data_value
+    # only; the others arg_value then data_value, each half of the block.
+    block = bytes.fromhex("0000000100000002")
+    if not argument_size:
+        block = block[:4]
+    request = LockRequest(
+        destination_id=0xFFC0, tlabel=1, offset=0, extended_tcode=extended_tcode, data=block
+    )
+    assert request.argument == block[:argument_size]
+    assert request.lock_data == block[argument_size:]
