@@ -23,10 +23,12 @@ from fw1394.packets import (
     encode,
 )
 from fw1394.packets.ack import Ack
+from fw1394.packets.asynchronous import decode_async
 from fw1394.packets.enums import PhyPacketType
 from fw1394.packets.eth1394 import ExtraBytes
 from fw1394.packets.fast import encode_packet
 from fw1394.packets.fields import FieldSpec, Quadlets
+from fw1394.packets.hextext import HexTextError, hex_bytes
 from fw1394.packets.phy import RemoteAccessPacket, SelfIdPacket, decode_phy
 from fw1394.packets.render import field_rows, hex_preview, summary
 
@@ -170,3 +172,45 @@ def test_a_lock_request_is_its_argument_then_its_data(
     )
     assert request.argument == block[:argument_size]
     assert request.lock_data == block[argument_size:]
+
+
+def crc32_1394(data: bytes) -> int:
+    """IEEE 1394's CRC-32 (polynomial 0x04C11DB7, MSB first, preset and inverted ones)."""
+    crc = 0xFFFFFFFF
+    for byte in data:
+        crc ^= byte << 24
+        for _ in range(8):
+            crc = (crc << 1) ^ 0x04C11DB7 if crc & 0x80000000 else crc << 1
+            crc &= 0xFFFFFFFF
+    return crc ^ 0xFFFFFFFF
+
+
+def block_write_bytes(data: bytes, data_crc_delta: int = 0) -> bytes:
+    # dest 0xFFC0, tlabel 2, retry 0, tcode 1, pri 0; source 0xFFC1, offset 0xFFFFF0000400;
+    # data_length, extended_tcode 0; then header CRC, data, data CRC.
+    header = b"".join(
+        q.to_bytes(4, "big")
+        for q in (
+            0xFFC0 << 16 | 2 << 10 | 1 << 4,
+            0xFFC1 << 16 | 0xFFFF,
+            0xF0000400,
+            len(data) << 16,
+        )
+    )
+    crc = (crc32_1394(data) + data_crc_delta) & 0xFFFFFFFF
+    return header + crc32_1394(header).to_bytes(4, "big") + data + crc.to_bytes(4, "big")
+
+
+def test_the_data_crc_is_checked_against_the_standards_crc() -> None:
+    good = decode_async(block_write_bytes(b"\x01\x02\x03\x04"))
+    assert good.data_crc_ok is True and good.header_crc_ok is True and good.problems == ()
+    bad = decode_async(block_write_bytes(b"\x01\x02\x03\x04", data_crc_delta=1))
+    assert bad.data_crc_ok is False
+    assert [p.field for p in bad.problems] == ["data_crc"]
+    assert QuadletReadRequest(destination_id=1, offset=0).data_crc_ok is None
+
+
+def test_hex_text_fills_0x_quadlets_and_refuses_an_odd_digit_count() -> None:
+    assert hex_bytes("0x1, ff 0a") == b"\x00\x00\x00\x01\xff\x0a"
+    with pytest.raises(HexTextError, match="odd number"):
+        hex_bytes("abc")
