@@ -24,7 +24,7 @@ from fw1394.packets import (
 )
 from fw1394.packets.ack import Ack
 from fw1394.packets.asynchronous import decode_async
-from fw1394.packets.enums import PhyPacketType
+from fw1394.packets.enums import PhyPacketType, PowerClass
 from fw1394.packets.eth1394 import ExtraBytes
 from fw1394.packets.fast import encode_packet
 from fw1394.packets.fields import FieldSpec, Quadlets
@@ -214,3 +214,18 @@ def test_hex_text_fills_0x_quadlets_and_refuses_an_odd_digit_count() -> None:
     assert hex_bytes("0x1, ff 0a") == b"\x00\x00\x00\x01\xff\x0a"
     with pytest.raises(HexTextError, match="odd number"):
         hex_bytes("abc")
+
+
+def test_power_classes_are_the_self_id_pwr_codes() -> None:
+    # pwr field of self-ID packet #0: 0 none; 1-3 provide 15, 30, 45 W; 4 uses up to
+    # 1 W from the bus; 5-7 use 1 W plus 2, 5 or 9 W more (3, 6, 10 W).
+    assert [(c.value, c.name) for c in PowerClass] == [
+        (0, "no_power"),
+        (1, "provides_15W"),
+        (2, "provides_30W"),
+        (3, "provides_45W"),
+        (4, "uses_1W"),
+        (5, "uses_3W"),
+        (6, "uses_6W"),
+        (7, "uses_10W"),
+    ]
