@@ -29,7 +29,13 @@ from fw1394.packets.eth1394 import ExtraBytes
 from fw1394.packets.fast import encode_packet
 from fw1394.packets.fields import FieldSpec, Quadlets
 from fw1394.packets.hextext import HexTextError, hex_bytes
-from fw1394.packets.phy import RemoteAccessPacket, SelfIdPacket, decode_phy
+from fw1394.packets.phy import (
+    PhyConfigPacket,
+    RemoteAccessPacket,
+    SelfIdPacket,
+    decode_phy,
+    encode_phy,
+)
 from fw1394.packets.render import field_rows, hex_preview, summary
 
 
@@ -229,3 +235,12 @@ def test_power_classes_are_the_self_id_pwr_codes() -> None:
         (6, "uses_6W"),
         (7, "uses_10W"),
     ]
+
+
+def test_a_default_phy_config_packet_sets_the_gap_count_to_63() -> None:
+    # 00, root_ID 0, R 0, T 1, gap_cnt 63 (its value after a bus reset), 16 zero bits;
+    # then the check quadlet, the first one inverted.
+    quadlet = 1 << 22 | 63 << 16
+    assert encode_phy(PhyConfigPacket()) == (
+        quadlet.to_bytes(4, "big") + (quadlet ^ 0xFFFFFFFF).to_bytes(4, "big")
+    )
