@@ -118,6 +118,8 @@ def test_self_id_ports_are_shown_by_their_status() -> None:
     text = summary(packet)
     for shown in ("phy_id=1", "port0=parent", "port1=child", "port2=not_connected", "speed=S400"):
         assert shown in text.split()
+    values = {row[0]: row[1] for row in field_rows(packet)}
+    assert (values["link_active"], values["contender"], values["inverse_ok"]) == ("yes", "no", "ok")
     meanings = {row[0]: row[2] for row in field_rows(packet)}
     assert (meanings["port0"], meanings["port1"], meanings["port2"]) == (
         "parent",
@@ -244,3 +246,10 @@ def test_a_default_phy_config_packet_sets_the_gap_count_to_63() -> None:
     assert encode_phy(PhyConfigPacket()) == (
         quadlet.to_bytes(4, "big") + (quadlet ^ 0xFFFFFFFF).to_bytes(4, "big")
     )
+
+
+def test_a_block_write_request_takes_its_data_length_from_its_data_and_no_extended_tcode() -> None:
+    request = BlockWriteRequest(destination_id=0xFFC0, offset=0, data=b"abcde")
+    assert request.data_length == 5 and request.problems == ()
+    # Header quadlet 3 of a block write: data_length(16), extended_tcode(16) = 0.
+    assert encode(request)[12:16] == (5 << 16).to_bytes(4, "big")
