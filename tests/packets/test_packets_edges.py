@@ -24,7 +24,7 @@ from fw1394.packets import (
 )
 from fw1394.packets.ack import Ack
 from fw1394.packets.asynchronous import decode_async
-from fw1394.packets.enums import PhyPacketType, PowerClass
+from fw1394.packets.enums import PhyPacketType, PowerClass, RCode, Speed, TCode
 from fw1394.packets.eth1394 import ExtraBytes
 from fw1394.packets.fast import encode_packet
 from fw1394.packets.fields import FieldSpec, Quadlets
@@ -253,3 +253,47 @@ def test_a_block_write_request_takes_its_data_length_from_its_data_and_no_extend
     assert request.data_length == 5 and request.problems == ()
     # Header quadlet 3 of a block write: data_length(16), extended_tcode(16) = 0.
     assert encode(request)[12:16] == (5 << 16).to_bytes(4, "big")
+
+
+def test_codes_are_the_standards_numbers() -> None:
+    # IEEE 1394-1995 transaction, response and ack codes; extended tcodes of lock
+    # requests; speed codes (S800 from 1394b).
+    assert {c.name: c.value for c in TCode} == {
+        "write_quadlet_request": 0x0,
+        "write_block_request": 0x1,
+        "write_response": 0x2,
+        "read_quadlet_request": 0x4,
+        "read_block_request": 0x5,
+        "read_quadlet_response": 0x6,
+        "read_block_response": 0x7,
+        "cycle_start": 0x8,
+        "lock_request": 0x9,
+        "stream_data": 0xA,
+        "lock_response": 0xB,
+    }
+    assert {c.name: c.value for c in RCode} == {
+        "resp_complete": 0x0,
+        "resp_conflict_error": 0x4,
+        "resp_data_error": 0x5,
+        "resp_type_error": 0x6,
+        "resp_address_error": 0x7,
+    }
+    assert {c.name: c.value for c in AckCode} == {
+        "ack_complete": 0x1,
+        "ack_pending": 0x2,
+        "ack_busy_X": 0x4,
+        "ack_busy_A": 0x5,
+        "ack_busy_B": 0x6,
+        "ack_tardy": 0xB,
+        "ack_conflict_error": 0xC,
+        "ack_data_error": 0xD,
+        "ack_type_error": 0xE,
+        "ack_address_error": 0xF,
+    }
+    assert [c.value for c in ExtendedTCode] == [1, 2, 3, 4, 5, 6, 7]
+    assert [(c.name, c.value) for c in Speed] == [
+        ("S100", 0),
+        ("S200", 1),
+        ("S400", 2),
+        ("S800", 3),
+    ]
