@@ -11,6 +11,8 @@
 
 from __future__ import annotations
 
+import struct
+
 import pytest
 
 from fw1394.packets import (
@@ -20,8 +22,10 @@ from fw1394.packets import (
     LockRequest,
     PacketError,
     QuadletReadRequest,
+    QuadletReadResponse,
     encode,
 )
+from fw1394.packets.accessors import SOURCE_ID, layout_reader
 from fw1394.packets.ack import Ack
 from fw1394.packets.asynchronous import decode_async
 from fw1394.packets.enums import PhyPacketType, PowerClass, RCode, Speed, TCode
@@ -297,3 +301,16 @@ def test_codes_are_the_standards_numbers() -> None:
         ("S400", 2),
         ("S800", 3),
     ]
+
+
+def test_field_readers_find_header_fields_at_their_standard_bytes() -> None:
+    # A quadlet read response: quadlet 1 is source_ID(16) rcode(4) reserved(12), quadlet 3
+    # the data; so source_ID is bytes 4-5, rcode the high nibble of byte 6, data bytes 12-15.
+    raw = struct.pack(">IIII", 0xFFC1 << 16 | 5 << 10 | 6 << 4, 0xFFC2 << 16 | 7 << 12, 0, 0x1234)
+    assert SOURCE_ID.byte_span == (4, 2, 0) and SOURCE_ID.of_bytes(raw) == 0xFFC2
+    rcode, data = layout_reader(6, "rcode"), layout_reader(6, "quadlet_data")
+    assert rcode.byte_span == (6, 1, 4) and rcode.of_bytes(raw) == 7
+    assert data.byte_span == (12, 4, 0) and data.of_bytes(raw) == 0x1234
+    response = decode_async(raw + bytes(4))
+    assert isinstance(response, QuadletReadResponse)
+    assert (response.source_bus, response.source_node) == (0x3FF, 2)
