@@ -9,6 +9,21 @@ A label stays out of use for a while after its transaction ends (see
 :mod:`fw1394.engine.labels`); a transaction started while all 64 labels to its
 destination are out of use waits in the requester, in order, and goes out
 (appears in :meth:`Requester.packets_to_send`) when one comes free.
+
+Most transactions end one of two ways: a read acked ``ack_pending`` with its
+response concatenated behind the ack, and a write acked ``ack_complete``.
+:meth:`Requester.take_ack_frame` takes an ack frame's bytes as they came and
+ends those at once: it checks on the wire bytes what :data:`~fw1394.engine.table.ON_ACK`
+and :func:`~fw1394.engine.transaction.mismatch_of` ask of such an end, with
+response readers generated from the packet layouts, and hands anything else
+(busy and error acks, error rcodes, a response that does not match, a
+duplicate) to :meth:`Requester.receive_ack` and :meth:`Requester.receive_response`,
+which walk the table. A blocking caller with nothing else outstanding goes
+further: :meth:`Requester.begin` gives it the label and transaction id of a
+transaction the requester keeps no record of, :func:`concatenated_data` checks
+its answer, and :meth:`Requester.finish` ends it; any other answer,
+:meth:`Requester.adopt` makes it one of the requester's own. Tests hold these
+ends equal to the table's with hypothesis.
 """
 
 from __future__ import annotations
@@ -16,11 +31,15 @@ from __future__ import annotations
 import heapq
 import math
 from collections import deque
+from collections.abc import Callable
 from dataclasses import replace
+from typing import Any
 
+from fw1394.crc import crc32
 from fw1394.engine.events import (
     Event,
     FailureReason,
+    ReadCompleted,
     TransactionFailed,
     UnexpectedAck,
     UnexpectedResponse,
@@ -42,23 +61,32 @@ from fw1394.packets import (
     AckCode,
     AsyncPacket,
     BlockReadRequest,
+    BlockReadResponse,
     BlockWriteRequest,
     ExtendedTCode,
     LockRequest,
     QuadletReadRequest,
+    QuadletReadResponse,
     QuadletWriteRequest,
     RCode,
     Request,
     Response,
     name_of,
 )
-from fw1394.packets.fast import builder
-from fw1394.packets.nodeid import phy_of
+from fw1394.packets.ack import ACK_BYTES, ack_code
+from fw1394.packets.codegen import compile_function
+from fw1394.packets.fast import block_crc, builder, data_block_source, decode_sound
+from fw1394.packets.frame import ACK_FRAME_SIZE
+from fw1394.packets.layouts import TCODE_BYTE, TCODE_SHIFT
+from fw1394.packets.nodeid import BROADCAST_PHY, LOCAL_BASE, node_id, phy_of
 
-_BROADCAST_NODE = 63
+#: A waiting transaction's label is -1: its request carries 63 until it has one.
+_LABEL_MASK = 0x3F
 _OFFSET_LIMIT = 1 << 48
 _LENGTH_LIMIT = 1 << 16
 _ACK_COMPLETE = int(AckCode.ack_complete)
+_PENDING_BYTE = ACK_BYTES[AckCode.ack_pending]
+_COMPLETE_BYTE = ACK_BYTES[AckCode.ack_complete]
 _HEAP_SLACK = 256
 # Module-level names: looking a member up on an Enum class costs more than a global.
 _AWAIT, _COMPLETE, _RETRY = Step.await_response, Step.complete, Step.retry
@@ -83,7 +111,7 @@ class Requester:
 
     def __init__(
         self,
-        node_id: int = 0xFFC1,
+        node_id: int = LOCAL_BASE | 1,
         generation: int = 0,
         split_timeout: float = 0.100,
         ack_timeout: float = 0.050,
@@ -120,6 +148,8 @@ class Requester:
         self._timers: list[tuple[float, int]] = []
         self._outbox: list[AsyncPacket] = []
         self._events: list[Event] = []
+        #: The transaction :meth:`begin` started: (id, destination key, label, sent at).
+        self._begun = (0, 0, 0, 0.0)
 
     # -- state -------------------------------------------------------------------------
     @property
@@ -157,7 +187,7 @@ class Requester:
     def read_quadlet(self, destination_id: int, offset: int, now: float) -> int:
         _check_offset(offset)
         key, label = self._take_label(destination_id, now)
-        request = _new_read_quadlet(destination_id, label & 0x3F, self._node_id, offset)
+        request = _new_read_quadlet(destination_id, label & _LABEL_MASK, self._node_id, offset)
         return self._start(key, label, request, -1, True, now)
 
     def read_block(self, destination_id: int, offset: int, length: int, now: float) -> int:
@@ -165,7 +195,9 @@ class Requester:
         if not 0 <= length < _LENGTH_LIMIT:
             raise ValueError(f"block length {length} is outside 0..{_LENGTH_LIMIT - 1}")
         key, label = self._take_label(destination_id, now)
-        request = _new_read_block(destination_id, label & 0x3F, self._node_id, offset, length)
+        request = _new_read_block(
+            destination_id, label & _LABEL_MASK, self._node_id, offset, length
+        )
         return self._start(key, label, request, length, True, now)
 
     def write_quadlet(self, destination_id: int, offset: int, value: int, now: float) -> int:
@@ -173,7 +205,9 @@ class Requester:
         if not 0 <= value < 1 << 32:
             raise ValueError(f"quadlet value {value:#x} does not fit 32 bits")
         key, label = self._take_label(destination_id, now)
-        request = _new_write_quadlet(destination_id, label & 0x3F, self._node_id, offset, value)
+        request = _new_write_quadlet(
+            destination_id, label & _LABEL_MASK, self._node_id, offset, value
+        )
         return self._start(key, label, request, -1, False, now)
 
     def write_block(self, destination_id: int, offset: int, data: bytes, now: float) -> int:
@@ -181,7 +215,9 @@ class Requester:
         if len(data) >= _LENGTH_LIMIT:
             raise ValueError(f"{len(data)} bytes do not fit a block write")
         key, label = self._take_label(destination_id, now)
-        request = _new_write_block(destination_id, label & 0x3F, self._node_id, offset, bytes(data))
+        request = _new_write_block(
+            destination_id, label & _LABEL_MASK, self._node_id, offset, bytes(data)
+        )
         return self._start(key, label, request, -1, False, now)
 
     def lock(
@@ -205,7 +241,7 @@ class Requester:
         key, label = self._take_label(destination_id, now)
         operands = bytes(argument) + bytes(data)
         request = _new_lock(
-            destination_id, label & 0x3F, self._node_id, offset, extended_tcode, operands
+            destination_id, label & _LABEL_MASK, self._node_id, offset, extended_tcode, operands
         )
         # The old value is as long as the data operand; vendor-dependent locks may differ.
         length = -1 if extended_tcode == ExtendedTCode.vendor_dependent else len(data)
@@ -215,7 +251,7 @@ class Requester:
         """(key, label) for a new transaction; label -1: it has to wait for one."""
         # Keyed by physical ID alone: a response may name the local bus as 0x3FF
         # or by its number, and both must find the transaction.
-        key = destination_id & 0x3F
+        key = phy_of(destination_id)
         if key in self._waiting:
             return key, -1  # no overtaking the transactions already waiting
         label = self._labels.take(key, now)
@@ -240,7 +276,7 @@ class Requester:
     def _send_first(self, transaction: Transaction, now: float) -> None:
         self._outbox.append(transaction.request)
         key, label = transaction.key, transaction.label
-        if key == _BROADCAST_NODE and not transaction.expects_response:
+        if key == BROADCAST_PHY and not transaction.expects_response:
             # Nobody acks a broadcast: the write is complete once it is sent, and
             # no answer will ever use its label.
             self._labels.release(key, label)
@@ -298,7 +334,7 @@ class Requester:
 
         ``ack_code=None`` reports that no ack came (the transport saw the ack gap pass).
         """
-        key = (destination_id & 0x3F) << 6 | tlabel
+        key = phy_of(destination_id) << 6 | tlabel
         transaction = self._by_label.get(key)
         if transaction is None or transaction.state != AWAIT_ACK:
             self._events.append(
@@ -335,7 +371,7 @@ class Requester:
         destination = packet.destination_id
         if destination != self._node_id and not same_node(destination, self._node_id):
             return None
-        key = (packet.source_id & 0x3F) << 6 | packet.tlabel
+        key = phy_of(packet.source_id) << 6 | packet.tlabel
         transaction = self._by_label.get(key)
         if transaction is None or transaction.state != AWAIT_RESPONSE:
             self._unexpected(packet, key, transaction)
@@ -362,6 +398,95 @@ class Requester:
         else:
             detail = f"transaction {ended} to {where} has ended (late or duplicate)"
         self._events.append(UnexpectedResponse(packet, detail, ended))
+
+    # -- the common ends, on flat bytes -------------------------------------------------
+    def take_ack_frame(self, sender_phy: int, payload: bytes, now: float) -> int:
+        """Take an ack frame's ``payload`` from physical ID ``sender_phy``: the ack, and
+        the response of the same tenure if one is behind it.
+
+        Returns the label of a response the link must ack ``ack_complete`` (any
+        response addressed to this node is), else -1. A payload too short to name
+        a transaction changes nothing.
+        """
+        size = len(payload)
+        if size < ACK_FRAME_SIZE:
+            return -1
+        tlabel = payload[1]
+        transaction = self._by_label.get(phy_of(sender_phy) << 6 | tlabel)
+        if transaction is not None and transaction.state == AWAIT_ACK:
+            if size == ACK_FRAME_SIZE:
+                if payload[0] == _COMPLETE_BYTE and not transaction.expects_response:
+                    done = WriteCompleted(transaction.tid)
+                    self._end(transaction, done, now, self._answered_hold())
+                    return -1
+            else:
+                data = concatenated_data(
+                    payload,
+                    sender_phy,
+                    transaction.response_class,
+                    transaction.destination_id,
+                    transaction.length,
+                    self._node_id,
+                )
+                if data is not None:
+                    # The table's way moves the transaction to awaiting its response
+                    # first; ending it at once leaves nothing of that step behind.
+                    event = ReadCompleted(transaction.tid, data)
+                    self._end(transaction, event, now, self._answered_hold())
+                    return tlabel
+        self.receive_ack(node_id(sender_phy), tlabel, ack_code(payload[0]), now)
+        if size > ACK_FRAME_SIZE:
+            packet = decode_sound(payload[ACK_FRAME_SIZE:])
+            if packet is not None and self.receive_response(packet, now) is not None:
+                label: int = getattr(packet, "tlabel", 0)
+                return label
+        return -1
+
+    def begin(self, destination_id: int, now: float) -> int:
+        """The label of a transaction to ``destination_id`` sent at ``now``; -1: none.
+
+        For a blocking caller that sends the request itself and checks its answer
+        with :func:`concatenated_data`: the requester hands out the label and the
+        transaction id a start would, and keeps no record until :meth:`adopt`.
+        Then :meth:`finish` or :meth:`adopt`, before anything else. -1 when
+        anything is outstanding, when every label to the destination is held,
+        or for a broadcast: start the transaction the usual way then.
+        """
+        key = phy_of(destination_id)
+        if self._transactions or key == BROADCAST_PHY:
+            return -1
+        label = self._labels.take(key, now)
+        if label is None:
+            return -1
+        tid = self._next_tid
+        self._next_tid = tid + 1
+        self._begun = (tid, key, label, now)
+        return label
+
+    def finish(self, now: float) -> None:
+        """The transaction of :meth:`begin` got its answer and completed at ``now``.
+
+        The requester is left as the table's way leaves it after that end (the
+        label held for the duplicate window, its last holder known), with no event.
+        """
+        tid, key, label, _ = self._begun
+        self._ended[key << 6 | label] = tid
+        hold = self._answered_hold()
+        self._labels.release(key, label, now + hold if hold > 0 else None)
+
+    def adopt(self, request: Request, length: int, expects_response: bool) -> int:
+        """Make the transaction of :meth:`begin`, sent as ``request``, one of the
+        requester's own, in flight as if started the usual way; its id.
+
+        ``length`` and ``expects_response`` are what the start of that kind gives
+        it: the data length its answer must bring (-1: not checked), and whether
+        it ends with a response rather than an ack.
+        """
+        tid, key, label, sent = self._begun
+        transaction = Transaction(tid, key, label, request, length, expects_response)
+        self._transactions[tid] = transaction
+        self._await_ack(transaction, sent)
+        return tid
 
     # -- time and bus resets -----------------------------------------------------------
     def next_deadline(self) -> float | None:
@@ -518,7 +643,7 @@ class Requester:
 def _is_broadcast_write(packet: AsyncPacket) -> bool:
     return (
         isinstance(packet, (QuadletWriteRequest, BlockWriteRequest))
-        and packet.destination_id & 0x3F == _BROADCAST_NODE
+        and phy_of(packet.destination_id) == BROADCAST_PHY
     )
 
 
@@ -529,3 +654,86 @@ def _ack_name(ack: int | None) -> str:
 def _check_offset(offset: int) -> None:
     if not 0 <= offset < _OFFSET_LIMIT:
         raise ValueError(f"offset {offset:#x} does not fit 48 bits")
+
+
+# -- a concatenated answer, checked on its bytes -----------------------------------------
+#: Reads a response: ``(destination_id, source_id, tlabel, data)``, or None.
+_Reader = Callable[[bytes], "tuple[int, int, int, bytes] | None"]
+
+
+def _reader(cls: type[AsyncPacket]) -> _Reader:
+    """``(destination_id, source_id, tlabel, data)`` of ``raw``, a sound ``cls``
+    response with rcode resp_complete, else None; generated from its layout."""
+    layout = cls.LAYOUT
+    sealed = layout.sealed_header
+    size = 4 * sealed.count
+    expressions = sealed.field_expressions()
+    quadlets = ", ".join(f"q{i}" for i in range(sealed.count))
+    lines = [
+        "def read(raw):",
+        f"    if len(raw) {'<' if layout.has_data else '!='} {size}:",
+        "        return None",
+        f"    {quadlets} = unpack_from(raw)",
+        f"    if crc(raw[:{size - 4}]) != {expressions['header_crc']} or {expressions['rcode']}:",
+        "        return None",
+    ]
+    if layout.has_data:
+        lines += data_block_source(size, expressions["data_length"])
+    else:
+        lines.append(f"    data = to_bytes({expressions['quadlet_data']}, 4)")
+    names = ("destination_id", "source_id", "tlabel")
+    lines.append(f"    return {', '.join(expressions[name] for name in names)}, data")
+    namespace: dict[str, Any] = {
+        "unpack_from": sealed.format.unpack_from,
+        "crc": crc32,
+        "block_crc": block_crc,
+        "from_bytes": int.from_bytes,
+        "to_bytes": int.to_bytes,
+    }
+    origin = f"fw1394.engine.requester read {cls.__name__}"
+    read: _Reader = compile_function(lines, namespace, "read", origin=origin)
+    return read
+
+
+#: response tcode -> (its class, its reader).
+_READERS: dict[int, tuple[type[AsyncPacket], _Reader]] = {
+    int(cls.LAYOUT.tcode): (cls, _reader(cls)) for cls in (QuadletReadResponse, BlockReadResponse)
+}
+
+
+def concatenated_data(
+    payload: bytes,
+    sender_phy: int,
+    response_class: type[AsyncPacket],
+    destination_id: int,
+    length: int,
+    me: int,
+) -> bytes | None:
+    """The data of a read that ack frame ``payload`` ends, or None.
+
+    ``payload`` from ``sender_phy`` must be ack_pending with a sound
+    ``response_class`` response behind it, resp_complete, with the ack's label,
+    addressed to node ``me`` by ``destination_id``, the transaction's
+    destination, with ``length`` bytes of data (-1: any); what
+    :data:`~fw1394.engine.table.ON_ACK`, :func:`~fw1394.engine.transaction.mismatch_of`
+    and the rcode check ask of a read that completes.
+    """
+    if payload[0] != _PENDING_BYTE or len(payload) <= ACK_FRAME_SIZE + TCODE_BYTE:
+        return None
+    response = payload[ACK_FRAME_SIZE:]
+    kind = _READERS.get(response[TCODE_BYTE] >> TCODE_SHIFT)
+    if kind is None or kind[0] is not response_class:
+        return None
+    fields = kind[1](response)
+    if fields is None:
+        return None
+    destination, source, label, data = fields
+    if label != payload[1] or phy_of(source) != phy_of(sender_phy):
+        return None  # the response names another transaction than the ack
+    if destination != me and not same_node(destination, me):
+        return None
+    if source != destination_id and not same_node(source, destination_id):
+        return None
+    if length >= 0 and len(data) != length:
+        return None
+    return data

@@ -16,7 +16,7 @@ from fw1394.fuzz.tunnel import Replies
 from fw1394.fuzz.udptarget import TUNNEL_VISIBILITY
 from fw1394.packets.nodeid import node_id
 from fw1394.transport.link import ACK, ASYNC_PACKET, BusRefusedError, LinkLayer
-from fw1394.transport.sansio.config import BusConfig, BusNameError, parse_bus_node
+from fw1394.transport.sansio.config import BusConfig, BusNameError
 from fw1394.transport.sansio.wire import FrameHeader, MemberInfo
 from fw1394.transport.station import Station
 from fw1394.transport.supervision.procs import pid_namespace, process_alive
@@ -67,10 +67,9 @@ class BusTarget:
             raise
 
     @classmethod
-    def open(cls, spec: str, *, timeout: float) -> BusTarget:
-        """``spec`` is ``NAME/NODE``: a bus name and a physical ID."""
+    def open(cls, name: str, node: int, *, timeout: float) -> BusTarget:
+        """Physical ID ``node`` of the bus ``name`` (parsed by :func:`targets.bus_node`)."""
         try:
-            name, node = parse_bus_node(spec)
             config = BusConfig(name)
         except (BusNameError, ValueError) as error:
             raise TargetGone(str(error)) from None

@@ -28,7 +28,7 @@ from fw1394.boards.qla1.paths import Path
 from fw1394.boards.registry import board_defects
 from fw1394.engine import Reply, Responder, ResponderPolicy
 from fw1394.engine.space import AddressSpace
-from fw1394.packets import AsyncPacket, Request, Response
+from fw1394.packets import AckCode, AsyncPacket, QuadletReadResponse, Request, Response
 from fw1394.packets.nodeid import phy_of
 
 #: The twins' clocks: ``rate * now + shift + step * packets`` (monotonic, and apart
@@ -102,6 +102,8 @@ class Reference:
         ]
         self._ceiling = Certainty.exact if kind is not None else Certainty.presence
         self._packets = 0
+        #: What the last quadlet read returned: a stale-data read's answer.
+        self._last_read = 0
 
     def expect(
         self, packet: AsyncPacket | None, damaged: bool, now: float, *, raw: bytes | None = None
@@ -111,16 +113,26 @@ class Reference:
         ``raw``: the bytes as sent, which a path other than FireWire reads its own way.
         """
         path = self.path
+        stale = None
         if path is not None:
             if raw is not None:
-                packet, damaged = path.read(raw)
+                stale = path.stale_read(raw)
+                packet, damaged = (stale, False) if stale is not None else path.read(raw)
             damaged = damaged and path.checks_crc
             if not isinstance(packet, Request) or not path.takes(packet, self.board_id):
                 return _SILENT, self._ceiling
             packet = path.for_board(packet, phy_of(self.node_id))
         if packet is None:
             return _SILENT, self._ceiling
+        if stale is not None and path is not None:
+            # No register is read: the answer carries what the previous read returned.
+            response = path.stale_response(stale, self._last_read)
+            concatenated = self.policy.read_mode == "concatenated"
+            reply = Reply(AckCode.ack_pending, response, concatenated)
+            return self._shaped(packet, reply), self._ceiling
         reply = self._shaped(packet, self.model.receive_packet(packet, now, damaged=damaged))
+        if isinstance(reply.response, QuadletReadResponse):
+            self._last_read = reply.response.quadlet_data
         certainty = self._ceiling
         # No twins (a node restarted with the model): the comparison is exact.
         self._packets += 1

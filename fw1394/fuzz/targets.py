@@ -21,6 +21,7 @@ from fw1394.fuzz.reference import Reference
 from fw1394.fuzz.settings import RTL_DEFAULTS, Settings, SettingsError, default_policy
 from fw1394.fuzz.target import Target
 from fw1394.fuzz.trial import Trial
+from fw1394.transport.sansio.config import BusNameError, parse_bus_node
 
 SCHEMES = ("inproc", "bus", "udp", "rtl")
 
@@ -51,6 +52,8 @@ def check(settings: Settings) -> None:
     for kind in (rest if scheme == "inproc" else None, settings.model):
         if kind is not None and kind not in BOARDS:
             raise SettingsError(f"unknown board kind {kind!r}; known kinds: {', '.join(kinds())}")
+    if scheme == "bus":
+        bus_node(rest)
     if scheme != "rtl" and any(getattr(settings, k) != v for k, v in RTL_DEFAULTS.items()):
         raise SettingsError("--speed and --sclk-mhz are for rtl: targets")
     if scheme == "inproc":
@@ -87,7 +90,8 @@ def open_target(settings: Settings) -> Target:
     if scheme == "bus":
         from fw1394.fuzz.bustarget import BusTarget
 
-        return BusTarget.open(rest, timeout=settings.timeout)
+        name, node = bus_node(rest)
+        return BusTarget.open(name, node, timeout=settings.timeout)
     if scheme == "rtl":
         from fw1394.fuzz.rtl_target import open_rtl
 
@@ -111,6 +115,15 @@ def open_target(settings: Settings) -> Target:
         timeout=settings.timeout,
         pid=settings.pid,
     )
+
+
+def bus_node(spec: str) -> tuple[str, int]:
+    """The bus name and physical ID of ``bus:NAME/NODE`` (``spec`` is what follows
+    ``bus:``), read by the one parser of that syntax the bench uses too."""
+    try:
+        return parse_bus_node(spec)
+    except BusNameError as error:
+        raise SettingsError(str(error)) from None
 
 
 def reference_for(settings: Settings, target: Target) -> Reference:

@@ -7,21 +7,22 @@ acked ``ack_complete``. The general path still makes a request packet and a
 :class:`~fw1394.engine.transaction.Transaction`, queues the packet, encodes
 it, and then pumps the link, which ends the transaction through the engine's
 events. :class:`Express` does that common turn on flat values instead: label
-and transaction id from :class:`~fw1394.engine.fast_requester.Solo`, the
-request's wire bytes from :func:`~fw1394.packets.fast.wire_builder`, one
+and transaction id from :meth:`Requester.begin <fw1394.engine.Requester.begin>`,
+the request's wire bytes from :func:`~fw1394.packets.fast.wire_builder`, one
 receive, the answer judged on the ack frame's bytes
-(:func:`~fw1394.engine.fast_requester.concatenated_data`), the link's ack of
+(:func:`~fw1394.engine.requester.concatenated_data`), the end taken by
+:meth:`Requester.finish <fw1394.engine.Requester.finish>`, the link's ack of
 the response, and the rest of the turn as the host's loop does it (station
 timers, catching up after a pause, engine timers).
 
 Anything else goes the general way, with the transaction handed over to the
-requester (:meth:`Solo.adopt`) before the frame that was not its clean answer
-is served: another frame first, a quiet poll, a busy or error ack, an error
-rcode, a split response. So does a call with anything else outstanding, a
-broadcast, an argument the general path would refuse, and a host with fault
-injection (whose frames may be delayed or copied). A keyed bus needs nothing
-special: the station seals and opens frames around the same payloads. Locks
-always go the general way. ``tests/transport/test_express.py`` holds both
+requester (:meth:`Requester.adopt <fw1394.engine.Requester.adopt>`) before the
+frame that was not its clean answer is served: another frame first, a quiet
+poll, a busy or error ack, an error rcode, a split response. So does a call
+with anything else outstanding, a broadcast, an argument the general path would
+refuse, and a host with fault injection (whose frames may be delayed or copied).
+A keyed bus needs nothing special: the station seals and opens frames around
+the same payloads. Locks always go the general way. ``tests/transport/test_express.py`` holds both
 paths equal with hypothesis.
 """
 
@@ -31,7 +32,7 @@ import time
 from collections.abc import Callable
 
 from fw1394.engine import ReadCompleted, TransactionEvent, TransactionFailed
-from fw1394.engine.fast_requester import Solo, concatenated_data
+from fw1394.engine.requester import concatenated_data
 from fw1394.packets import (
     AckCode,
     AsyncPacket,
@@ -47,7 +48,7 @@ from fw1394.packets import (
 from fw1394.packets.ack import ACK_BYTES
 from fw1394.packets.fast import builder, wire_builder
 from fw1394.packets.frame import ACK_FRAME_FORMAT, ACK_FRAME_SIZE
-from fw1394.packets.nodeid import LOCAL_BASE
+from fw1394.packets.nodeid import BROADCAST_ID, BROADCAST_PHY, LOCAL_BASE, phy_of
 from fw1394.transport.bus_host import (
     MAX_BLOCK_READ,
     MAX_BLOCK_WRITE,
@@ -61,8 +62,8 @@ _pack_ack = ACK_FRAME_FORMAT.pack
 _COMPLETE = ACK_BYTES[AckCode.ack_complete]
 _OFFSET_LIMIT = 1 << 48
 _QUADLET_LIMIT = 1 << 32
-_LAST_NODE = 0xFFFF
-_LAST_PHY = 63
+#: Node IDs are 16 bits; the largest, all ones, is the local broadcast.
+_LAST_NODE = BROADCAST_ID
 #: A request kind: its wire bytes from the route and its own fields; the packet
 #: object the requester would have made of the same values, should the general path
 #: take over; and the response class that ends it (a write: WriteResponse, which
@@ -88,7 +89,7 @@ class Express:
         self.host = host
         self.station = host.station
         self.link = host.link
-        self.solo = Solo(host.requester)
+        self.requester = host.requester
         # Frames of a host with fault injection may leave late or twice.
         self.open = host.station.faults is None
 
@@ -136,16 +137,17 @@ class Express:
         (something else is outstanding, or every label to the node is held), and
         nothing was sent.
         """
-        host, solo, station = self.host, self.solo, self.station
-        destination = node | LOCAL_BASE if node <= _LAST_PHY else node
+        host, requester, station = self.host, self.requester, self.station
+        # A physical ID alone names the local bus (63 broadcasts: the general way).
+        destination = node | LOCAL_BASE if node <= BROADCAST_PHY else node
         # Catch up first, as the general start does: back from a pause, the bus may
         # have dropped this host, and nothing may go out in a stale generation.
         sent = host.on_bus()
-        label = solo.begin(destination, sent)
+        label = requester.begin(destination, sent)
         if label < 0:
             return None
-        me = solo.requester.node_id
-        phy = destination & 0x3F
+        me = requester.node_id
+        phy = phy_of(destination)
         wire, packet, response_class = kind
         sequence = station.send(ASYNC_PACKET, phy, wire(destination, label, me, *values))
         self.link.asked[phy << 6 | label] = sequence  # whose ack is the one to take
@@ -166,7 +168,7 @@ class Express:
                 else:
                     data = concatenated_data(payload, phy, response_class, destination, length, me)
                 if data is not None:
-                    solo.finish(now)
+                    requester.finish(now)
                     self.link.recent.again(header.sender, header.sequence)  # a copy is no news
                     if response_class is not WriteResponse:  # the link acks the response
                         station.send(ACK, phy, _pack_ack(_COMPLETE, label, 0, header.sequence))
@@ -179,7 +181,7 @@ class Express:
         # Not the common end: the requester takes the transaction over, as if it had
         # started it the general way, and the frame is served the general way.
         expects = response_class is not WriteResponse
-        tid = solo.adopt(packet(destination, label, me, *values), length, expects)
+        tid = requester.adopt(packet(destination, label, me, *values), length, expects)
         try:
             self.link.settle(frame, now)
         except BusRefusedError as error:

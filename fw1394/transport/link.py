@@ -30,12 +30,10 @@ import time
 from collections.abc import Callable, Iterable
 
 from fw1394.engine import Requester, Responder
-from fw1394.engine.fast_requester import FastEnds
 from fw1394.engine.responder import Reply
 from fw1394.errors import BusUnreachable
 from fw1394.packets import AckCode, AsyncPacket
 from fw1394.packets.accessors import TLABEL
-from fw1394.packets.ack import ack_code
 from fw1394.packets.fast import decode_sound, encode_packet
 from fw1394.packets.nodeid import BROADCAST_ID, node_id, phy_of
 from fw1394.transport.sansio.membership import BusReset, Change, Excluded, Refused
@@ -243,21 +241,11 @@ class RequesterLink(LinkLayer):
     def __init__(self, requester: Requester, send: Send, station: Station | None = None) -> None:
         super().__init__(send, station)
         self.requester = requester
-        #: The common ends on flat bytes (None: the general path only).
-        self.fast_ack: Callable[[int, bytes, float], int | None] | None = FastEnds(requester).ack
 
     def take(self, header: FrameHeader, payload: bytes, now: float) -> None:
         kind = header.kind
         if kind == ACK:
-            fast = self.fast_ack
-            label = None if fast is None else fast(header.sender_phy, payload, now)
-            if label is None:
-                self.on_ack(header.sender_phy, header.sequence, payload, now)
-            else:
-                if label >= 0:  # a concatenated response completed: the link acks it
-                    ack = _pack_ack(ACK_COMPLETE_BYTE, label, 0, header.sequence)
-                    self.send(ACK, header.sender_phy, ack)
-                self.flush()  # as the general path: the end may have freed a label
+            self.on_ack(header.sender_phy, header.sequence, payload, now)
         elif kind == ASYNC_PACKET:
             self.on_response(header.sender_phy, header.sequence, payload, now)
         else:
@@ -274,16 +262,12 @@ class RequesterLink(LinkLayer):
             if self.station is not None:
                 self.station.drops.malformed += 1
             return
-        # Unpacked in place rather than through parse_ack's AckPayload: every
-        # transaction has one.
-        byte, tlabel, _, _ = _unpack_ack(payload)
-        self.requester.receive_ack(node_id(sender), tlabel, ack_code(byte), now)
-        if len(payload) > ACK_SIZE:
+        label = self.requester.take_ack_frame(sender, payload, now)
+        if label >= 0:
             # The response of the same tenure, acked like a split one (the link acks
             # whatever response it takes) under the ack frame's sequence number.
-            self.on_response(sender, sequence, payload[ACK_SIZE:], now)
-        else:
-            self.flush()  # a busy ack may have queued a retry
+            self.send(ACK, sender, _pack_ack(ACK_COMPLETE_BYTE, label, 0, sequence))
+        self.flush()  # an end may have freed a label, a busy ack queued a retry
 
     def on_response(self, sender: int, sequence: int, payload: bytes, now: float) -> None:
         """A response packet from ``sender`` in frame ``sequence``, acked if the engine says so."""

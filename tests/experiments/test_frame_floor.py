@@ -7,7 +7,7 @@ import statistics
 
 import pytest
 
-from fw1394.engine.fast_requester import concatenated_data
+from fw1394.engine.requester import concatenated_data
 from fw1394.experiments.frame_floor import FRAMES, HOST, NODE, FrameFloor, frames
 from fw1394.packets import AckCode, QuadletReadRequest, QuadletReadResponse, decode
 from fw1394.packets.ack import ACK_BYTES
