@@ -68,6 +68,7 @@ PLAN: dict[str, tuple[str, ...]] = {
     "fw1394/transport/sansio/seal.py": (
         "tests/transport/test_known_answer_frames.py",
         "tests/transport/test_bus_seal.py",
+        "tests/transport/test_seal_edges.py",
     ),
     "fw1394/transport/sansio/wire.py": (
         "tests/transport/test_known_answer_frames.py",
@@ -76,6 +77,7 @@ PLAN: dict[str, tuple[str, ...]] = {
     "fw1394/transport/sansio/membership.py": (
         "tests/transport/test_bus_membership.py",
         "tests/transport/test_membership_pause.py",
+        "tests/transport/test_membership_edges.py",
     ),
     "fw1394/transport/link.py": ("tests/transport/test_link.py",),
     "fw1394/boards": ("tests/boards",),
@@ -104,6 +106,7 @@ class ModuleScore:
     annotations: int = 0  # of those, mutants of a never-evaluated annotation (equivalent)
     sampled: int = 0
     uncovered: int = 0  # survivors on a line no planned test executes (not run)
+    timeouts: int = 0  # of the killed, those killed by running out of time
     selected_runs: int = 0  # mutants tested with only the tests that execute their line
     seconds: float = 0.0
     survivors: list[dict[str, object]] = field(default_factory=list)
@@ -208,17 +211,23 @@ def _inside(spec: MutationSpec, spans: list[Span]) -> bool:
 
 
 # Runs the planned tests once under coverage, each test in its own coverage context,
-# after importing the entry's modules so that import-time lines fall in the empty context.
+# after importing the entry's modules so that import-time lines fall in the empty context;
+# writes the node IDs of the tests that fail without any mutant beside the data file.
 _COVER = """
 import importlib, sys, coverage, pytest
 data_file, files, modules, *args = sys.argv[1:]
 cov = coverage.Coverage(data_file=data_file, include=files.split(","), branch=False)
+failed, durations = set(), {}
 class Contexts:
     @pytest.hookimpl(hookwrapper=True)
     def pytest_runtest_protocol(self, item, nextitem):
         cov.switch_context(item.nodeid)
         yield
         cov.switch_context("")
+    def pytest_runtest_logreport(self, report):
+        durations[report.nodeid] = durations.get(report.nodeid, 0.0) + report.duration
+        if report.failed:
+            failed.add(report.nodeid)
 cov.start()
 for name in modules.split(","):
     try:
@@ -228,26 +237,36 @@ for name in modules.split(","):
 status = pytest.main(args, plugins=[Contexts()])
 cov.stop()
 cov.save()
-sys.exit(int(status))
+open(data_file + ".failed", "w").write("".join(f"{n}\\n" for n in sorted(failed)))
+open(data_file + ".durations", "w").write(repr(durations))
+sys.exit(0 if status in (0, 1) else int(status))
 """
 
 
 def tests_by_line(
     modules: list[str], tests: tuple[str, ...], scratch: Path
-) -> dict[str, dict[int, set[str]]]:
-    """Module -> line -> the planned tests (node IDs, "" for import time) that execute it."""
+) -> tuple[dict[str, dict[int, set[str]]], list[str], dict[str, float]]:
+    """Module -> line -> the planned tests (node IDs, "" for import time) that execute it;
+    the planned tests that fail without any mutant (left out of every run); and the
+    seconds each test function took under coverage."""
     data_file = scratch / "coverage"
     files = [str(ROOT / m) for m in modules]
     names = [m.removesuffix(".py").removesuffix("/__init__").replace("/", ".") for m in modules]
+    # Not -x: a test that fails on its own (a flaky one, say) is left out, not fatal;
+    # coverage slows tests down, so their timeout is longer here.
+    args = [a for a in PYTEST_ARGS if a != "-x"] + ["-o", "timeout=900"]
     done = subprocess.run(
         [sys.executable, "-c", _COVER, str(data_file), ",".join(files), ",".join(names),
-         *PYTEST_ARGS, *tests],
+         *args, *tests],
         cwd=ROOT, capture_output=True, text=True, check=False,
     )  # fmt: skip
     if done.returncode != 0:
         tail = "\n".join(done.stdout.splitlines()[-15:])
-        print(f"mutation: the planned tests fail without any mutant:\n{tail}", file=sys.stderr)
+        print(f"mutation: the planned tests cannot run:\n{tail}", file=sys.stderr)
         raise SystemExit(1)
+    failing = Path(f"{data_file}.failed").read_text().split()
+    if failing:
+        print(f"mutation: left out, failing without mutants: {' '.join(failing)}", file=sys.stderr)
     import coverage
 
     data = coverage.CoverageData(basename=str(data_file))
@@ -256,9 +275,18 @@ def tests_by_line(
     for measured in data.measured_files():
         module = str(Path(measured).relative_to(ROOT))
         by_module[module] = {
-            line: set(contexts) for line, contexts in data.contexts_by_lineno(measured).items()
+            line: set(contexts) - set(failing)
+            for line, contexts in data.contexts_by_lineno(measured).items()
         }
-    return by_module
+    seconds: dict[str, float] = {}
+    for test, spent in ast.literal_eval(Path(f"{data_file}.durations").read_text()).items():
+        seconds[_function(test)] = seconds.get(_function(test), 0.0) + spent
+    return by_module, failing, seconds
+
+
+def _function(node_id: str) -> str:
+    """The test function of a node ID (parametrized cases run together)."""
+    return re.sub(r"\[.*\]$", "", node_id)
 
 
 def choose_tests(
@@ -277,7 +305,7 @@ def choose_tests(
         contexts |= lines.get(line, set())
     if "" in contexts:
         return None
-    return sorted({re.sub(r"\[.*\]$", "", context) for context in contexts})
+    return sorted({_function(context) for context in contexts})
 
 
 def enumerate_mutants(modules: list[str], tests: tuple[str, ...], scratch: Path) -> list[WorkItem]:
@@ -314,7 +342,9 @@ def run_forked(tests: list[str] | tuple[str, ...], timeout: float) -> str:
             os.dup2(quiet, 2)
             import pytest
 
-            status = int(pytest.main([*PYTEST_ARGS, *tests]))
+            # The run's own limit rules, not the suite's per-test timeout.
+            limit = ["-o", f"timeout={int(timeout) + 1}"]
+            status = int(pytest.main([*PYTEST_ARGS, *limit, *tests]))
         finally:
             os._exit(status)
     stop = time.monotonic() + timeout
@@ -330,10 +360,8 @@ def run_forked(tests: list[str] | tuple[str, ...], timeout: float) -> str:
         time.sleep(0.02)
 
 
-def test_mutant(
-    item: WorkItem, runs: list[list[str] | tuple[str, ...]], timeout: float
-) -> tuple[str, str]:
-    """Apply the mutant, run each test list until one fails; (outcome, diff).
+def test_mutant(item: WorkItem, runs: list[tuple[list[str], float]]) -> tuple[str, str]:
+    """Apply the mutant, run each (tests, time limit) until one fails; (outcome, diff).
 
     Bytecode is cached (under ``sys.pycache_prefix``) for speed, except the mutated
     module's: a mutant and its original can share a size and an mtime second.
@@ -348,9 +376,9 @@ def test_mutant(
     with use_mutation(spec.module_path, operator, spec.occurrence) as (before, after):
         if after is None:
             return "incompetent", ""
-        for tests in runs:
+        for tests, limit in runs:
             compiled.unlink(missing_ok=True)
-            outcome = run_forked(tests, timeout)
+            outcome = run_forked(tests, limit)
             if outcome != "survived":
                 break
     compiled.unlink(missing_ok=True)
@@ -386,7 +414,13 @@ def score_entry(
         result.annotations = result.mutants - len(items)
         if 0 < sample < len(items):
             items = random.Random(seed).sample(items, sample)
-        lines = tests_by_line(modules, tests, Path(scratch))
+        lines, failing, seconds = tests_by_line(modules, tests, Path(scratch))
+    left_out = [f"--deselect={test}" for test in failing]
+    everything = [*tests, *left_out]
+    # A mutant's run may take twice what its tests took under coverage (itself
+    # slower than a plain run), plus --timeout: on a loaded machine a fixed limit
+    # would count slow tests as kills.
+    whole = timeout + 2 * sum(seconds.values())
     for item in items:
         if deadline is not None and time.monotonic() > deadline:
             print(f"mutation: budget spent during {entry}", file=sys.stderr)
@@ -395,15 +429,23 @@ def score_entry(
         module = str(spec.module_path)
         chosen = choose_tests(spec, lines.get(module, {}), call_time[module])
         result.sampled += 1
+        runs: list[tuple[list[str], float]]
         if chosen == []:
             result.uncovered += 1  # no planned test executes the line: nothing to run
-            runs: list[list[str] | tuple[str, ...]] = []
+            runs = []
         elif chosen is None:
-            runs = [tests]
+            runs = [(everything, whole)]
         else:
             result.selected_runs += 1
-            runs = [chosen]
-        outcome, diff = test_mutant(item, runs, timeout)
+            limit = timeout + 2 * sum(seconds.get(test, 0.0) for test in chosen)
+            runs = [([*chosen, *left_out], limit)]
+        outcome, diff = test_mutant(item, runs)
+        ran = "all planned tests" if chosen is None else f"{len(chosen)} tests"
+        print(
+            f"  {result.sampled}/{len(items)} {outcome:11} {module}:{spec.start_pos[0]}"
+            f" {spec.operator_name} ({ran})",
+            file=sys.stderr,
+        )
         if outcome == "incompetent":
             result.incompetent += 1
         elif outcome == "survived":
@@ -414,6 +456,7 @@ def score_entry(
             })  # fmt: skip
         else:
             result.killed += 1
+            result.timeouts += outcome == "timeout"
     result.seconds = time.monotonic() - started
     return result
 
@@ -423,7 +466,8 @@ def report(scores: list[ModuleScore]) -> str:
     for entry in scores:
         shown = "-" if entry.score is None else f"{entry.score:6.1%}"
         lines.append(
-            f"{entry.module:40} {shown:>7}  killed {entry.killed:4}  survived {entry.survived:4}"
+            f"{entry.module:40} {shown:>7}  killed {entry.killed:4} ({entry.timeouts} by timeout)"
+            f"  survived {entry.survived:4}"
             f" (no test runs the line: {entry.uncovered})  not run {entry.incompetent}"
             f"  | sampled {entry.sampled} of {entry.mutants - entry.annotations}"
             f" (+{entry.annotations} annotation mutants, equivalent)"
@@ -451,7 +495,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--changed", metavar="REV", help="only library files changed since REV")
     parser.add_argument("--sample", type=int, default=0, help="mutants per plan entry (0: all)")
     parser.add_argument("--seed", type=int, default=1394, help="seed of the sample")
-    parser.add_argument("--timeout", type=float, default=120.0, help="seconds per mutant's run")
+    parser.add_argument(
+        "--timeout", type=float, default=120.0,
+        help="seconds a mutant's run may take beyond twice its tests' time under coverage",
+    )  # fmt: skip
     parser.add_argument("--budget", type=float, default=0.0, help="stop after this many seconds")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     args = parser.parse_args(argv)

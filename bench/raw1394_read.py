@@ -149,7 +149,10 @@ def rt_round(root: Path, reads: int) -> tuple[float, float, float]:
     the adapter's and the nodes' CPU microseconds per transaction."""
     env = {**os.environ, "PYTHONPATH": str(root)}
     script = [sys.executable, __file__, "--rt", "--rounds", "1", "--reads", str(reads), "--json"]
-    done = subprocess.run(script, env=env, capture_output=True, text=True, timeout=600, check=True)
+    done = subprocess.run(script, env=env, capture_output=True, text=True, timeout=600)
+    if done.returncode:
+        last = (done.stderr.strip().splitlines() or ["no output"])[-1]
+        sys.exit(f"raw1394_read.py: a round with fw1394 from {root} failed: {last}")
     report = json.loads(done.stdout)
     return (
         report["cycles_per_second"][0],

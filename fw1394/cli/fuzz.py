@@ -20,6 +20,7 @@ examples:
   fw1394 fuzz run udp:127.0.0.1:1394 --eth1394 --model qla1 --duration 60
   fw1394 fuzz run udp:127.0.0.1:11394 --model memory --restart ./start-node.sh --duration 60
   fw1394 fuzz run inproc:memory --jobs 2 --max-cases 100000 --seed 3
+  fw1394 fuzz run inproc:qla1 --oracle jhu --defect hw-version-swapped --plot run.png
   fw1394 fuzz replay fuzz-findings                       do the saved findings still happen?
   fw1394 fuzz replay fuzz-findings --restart ./start-node.sh
   fw1394 fuzz defects qla1                               the bugs --defect can plant
@@ -194,6 +195,12 @@ def add_run_options(run: argparse.ArgumentParser) -> None:
     out.add_argument("--history", type=integer, default=512, help="packets kept per finding")
     out.add_argument("--json", action="store_true", help="print the report as JSON")
     out.add_argument(
+        "--plot",
+        default=None,
+        metavar="FILE",
+        help="draw findings and coverage over the run into FILE (.png, .svg, .pdf; one job)",
+    )
+    out.add_argument(
         "--progress",
         action=argparse.BooleanOptionalAction,
         default=None,
@@ -260,6 +267,15 @@ def run_campaign(args: argparse.Namespace) -> int:
             raise CliError(f"the hypothesis engine needs the {error.name} package") from None
     if args.cluster is not None and args.restart is not None:
         raise CliError("--cluster runs without --restart")
+    if args.plot is not None:
+        from fw1394.capture.views.trace_plots import PlotError, check_plot_path
+
+        if args.jobs != 1 or args.cluster is not None or args.engine == "hypothesis":
+            raise CliError("--plot draws a campaign of one job of the fast engine")
+        try:
+            check_plot_path(args.plot)
+        except PlotError as error:
+            raise CliError(str(error)) from None
     try:
         store = findings.Store(directory, earlier)
     except OSError as error:
@@ -287,6 +303,13 @@ def run_campaign(args: argparse.Namespace) -> int:
         store.report(report.to_json())
     except OSError as error:
         raise CliError(f"cannot save findings in {directory}: {error.strerror or error}") from None
+    if args.plot is not None:
+        from fw1394.fuzz.plot import plot_campaign
+
+        try:
+            plot_campaign(report, Path(args.plot))
+        except PlotError as error:
+            raise CliError(str(error)) from None
     if args.json:
         print(json.dumps(report.to_json()))
     else:

@@ -11,12 +11,13 @@ from __future__ import annotations
 
 import time
 
+from fw1394.fuzz.reference import RomIdentity
 from fw1394.fuzz.target import Observed, TargetCrash, TargetGone, Wire
 from fw1394.fuzz.tunnel import Replies
 from fw1394.fuzz.udptarget import TUNNEL_VISIBILITY
 from fw1394.packets.nodeid import node_id
 from fw1394.transport.link import ACK, ASYNC_PACKET, BusRefusedError, LinkLayer
-from fw1394.transport.sansio.config import BusConfig, BusNameError, parse_bus_node
+from fw1394.transport.sansio.config import BusConfig, BusNameError
 from fw1394.transport.sansio.wire import FrameHeader, MemberInfo
 from fw1394.transport.station import Station
 from fw1394.transport.supervision.procs import pid_namespace, process_alive
@@ -52,6 +53,7 @@ class BusTarget:
 
     def __init__(self, config: BusConfig, phy: int, timeout: float) -> None:
         self.description = f"bus:{config.name}/{phy}"
+        self.bus_name = config.name
         self.timeout = timeout
         self.phy = phy
         self.node_id = node_id(phy)
@@ -67,10 +69,9 @@ class BusTarget:
             raise
 
     @classmethod
-    def open(cls, spec: str, *, timeout: float) -> BusTarget:
-        """``spec`` is ``NAME/NODE``: a bus name and a physical ID."""
+    def open(cls, name: str, node: int, *, timeout: float) -> BusTarget:
+        """Physical ID ``node`` of the bus ``name`` (parsed by :func:`targets.bus_node`)."""
         try:
-            name, node = parse_bus_node(spec)
             config = BusConfig(name)
         except (BusNameError, ValueError) as error:
             raise TargetGone(str(error)) from None
@@ -91,6 +92,10 @@ class BusTarget:
                 raise TargetGone(f"{self.description}: {what} within {_JOIN_TIMEOUT} s")
             self.link.turn()
             self.link.frames.clear()
+
+    def rom_identity(self) -> RomIdentity:
+        """What the node's configuration ROM is made from: its bus, board ID and rank."""
+        return RomIdentity(self.bus_name, self.member.board_id, self.member.rank)
 
     def exchange(self, batch: list[Wire], now: float) -> list[Observed]:
         link, frames = self.link, self.link.frames

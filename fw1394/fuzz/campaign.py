@@ -17,13 +17,14 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import replace
+from typing import Any, Protocol
 
 from fw1394.fuzz import corpus
 from fw1394.fuzz.coverage import bin_name, length_class
-from fw1394.fuzz.findings import Finding, Store
+from fw1394.fuzz.findings import Finding
 from fw1394.fuzz.generate import Generator
 from fw1394.fuzz.judge import Violation
-from fw1394.fuzz.report import Report
+from fw1394.fuzz.report import TIMELINE_EVERY, Report
 from fw1394.fuzz.restart import (
     RestartHook,
     RestartingTarget,
@@ -51,6 +52,15 @@ _REMOTE_SHRINK_BUDGET = 20
 SHRINK_SHARE = 0.2
 #: Seconds between two writes of the report while the campaign runs.
 _REPORT_EVERY_S = 5.0
+
+
+class Sink(Protocol):
+    """Where a campaign keeps its findings and report as they come (a
+    :class:`~fw1394.fuzz.findings.Store`, or a worker's way to its parent)."""
+
+    def put(self, finding: Finding) -> object: ...
+
+    def report(self, data: dict[str, Any]) -> None: ...
 
 
 class Terminated(KeyboardInterrupt):
@@ -82,7 +92,7 @@ def run(
     *,
     restart: str | RestartHook | None = None,
     worker: int = 0,
-    store: Store | None = None,
+    store: Sink | None = None,
 ) -> Report:
     """Fuzz the target of ``settings`` until a limit; the report (findings shrunk).
 
@@ -130,7 +140,7 @@ def run(
 class _Live:
     """The report of a running campaign, and where it is kept up to date."""
 
-    def __init__(self, report: Report, store: Store | None, start: float) -> None:
+    def __init__(self, report: Report, store: Sink | None, start: float) -> None:
         self.report = report
         self.store = store
         self.start = start
@@ -271,6 +281,7 @@ def _loop(
             "case: restart the node before a campaign, or leave out --model"
         )
     _record(first, trial, settings, found, live, 0)
+    _sample(report, 0, 0.0, len(found), always=True)
     try:
         while limit is None or cases < limit:
             raw, label = generator.case()
@@ -298,6 +309,7 @@ def _loop(
                         live.found(found[key])
             if cases % _STRIDE == 0:
                 now = time.monotonic()
+                _sample(report, cases, now - start, len(found))
                 if deadline is not None and now >= deadline - (reserve if found else 0.0):
                     report.stopped = "duration"
                     break
@@ -316,11 +328,27 @@ def _loop(
     report.cases = cases
     report.checks.update(trial.checks)
     report.findings = list(found.values())
+    _sample(report, cases, time.monotonic() - start, len(found), always=True)
     if progress is not None:
         elapsed = time.monotonic() - start
         progress.update(cases, _rate(cases, elapsed, len(found)), force=True)
         progress.finish(f"{_rate(cases, elapsed, len(found))}; stopped: {report.stopped}")
     live.write()
+
+
+def _sample(
+    report: Report, cases: int, seconds: float, findings: int, *, always: bool = False
+) -> None:
+    """A point of the timeline when something grew (or :data:`TIMELINE_EVERY` cases on)."""
+    timeline, hit = report.timeline, len(report.bins)
+    if timeline:
+        last_cases, _, last_findings, last_hit = timeline[-1]
+        grew = findings != last_findings or hit != last_hit
+        if not (always or grew or cases - last_cases >= TIMELINE_EVERY):
+            return
+        if last_cases == cases:
+            timeline.pop()
+    timeline.append((cases, seconds, findings, hit))
 
 
 def _rate(cases: int, elapsed: float, findings: int) -> str:
@@ -394,7 +422,9 @@ def _shrunk(
     replay = replayer(settings, target, counted)
     if fresh_starts(target):
         shrunk = shrink(finding, replay, settings.shrink_budget, deadline=deadline)
-        return described(shrunk, settings, target) if shrunk.shrunk else shrunk
+        # The evidence of the shrunk stream is one more replay: not past the deadline.
+        in_time = deadline is None or time.monotonic() < deadline
+        return described(shrunk, settings, target) if shrunk.shrunk and in_time else shrunk
     # A remote node cannot start afresh: whatever its state has become stays, so only
     # a silence finding (which depends on the packet alone) is shrunk, from the last
     # batch; the whole stream stays in every other reproducer.

@@ -11,6 +11,9 @@ from fw1394.fuzz.findings import Finding
 from fw1394.fuzz.judge import ORACLES
 from fw1394.fuzz.settings import Settings
 
+#: Cases between two points of the timeline when nothing new happened.
+TIMELINE_EVERY = 1024
+
 
 @dataclass
 class Report:
@@ -37,6 +40,9 @@ class Report:
     speeds: tuple[str, ...] = ("-",)
     #: Anything the user should know about the run (no model, restarts, ...).
     notes: list[str] = field(default_factory=list)
+    #: How the run went: (cases, seconds, distinct findings, bins hit) whenever the
+    #: findings or the bins hit grew, and every :data:`TIMELINE_EVERY` cases.
+    timeline: list[tuple[int, float, int, int]] = field(default_factory=list)
 
     @property
     def rate(self) -> float:
@@ -71,6 +77,10 @@ class Report:
                 "never_hit": never_hit(self.bins, self.speeds),
             },
             "notes": self.notes,
+            "timeline": [
+                {"cases": c, "seconds": round(t, 3), "findings": f, "bins_hit": b}
+                for c, t, f, b in self.timeline
+            ],
         }
 
     def lines(self) -> list[str]:

@@ -17,11 +17,12 @@ from __future__ import annotations
 import zlib
 from pathlib import Path
 
+from fw1394.fuzz.contract import family
 from fw1394.fuzz.target import Observation, Observed, TargetCrash, TargetGone, Visibility, Wire
 from fw1394.rtl.defects import RTL_DEFECTS, define
 from fw1394.rtl.portmap import SPEED_NAMES, PortMap, PortMapError, load, split_spec
 from fw1394.rtl.refusal import explain, probe_waves
-from fw1394.rtl.simulation import Simulation, SimulationError, cache_dir
+from fw1394.rtl.simulation import Simulation, SimulationError, cache_dir, park, start
 
 #: Campaign speeds: one for every packet, or each packet its own.
 SPEEDS = (*SPEED_NAMES, "mixed")
@@ -71,7 +72,7 @@ class RtlTarget:
 
     def _start(self) -> Simulation:
         try:
-            sim = Simulation(self.portmap, **self._options)  # type: ignore[arg-type]
+            sim = start(self.portmap, **self._options)
         except SimulationError as error:
             raise TargetGone(f"{self.description}: {error}") from None
         if not sim.acked:
@@ -98,7 +99,11 @@ class RtlTarget:
             answer = self.sim.exchange(raws, now, speeds=[self._speed_of(raw) for raw in raws])
         except SimulationError as error:
             raise TargetCrash(f"simulator-gone: {error}") from None
-        self._interface += answer["violations"]
+        # The signature names the kind of packet in whose exchange the rule was broken,
+        # so one rule broken by two root causes (a read path, a write path) is two findings.
+        for line, index in zip(answer["violations"], answer["blamed"], strict=True):
+            signature, _, text = line.partition(": ")
+            self._interface.append(f"{signature}:{family(batch[index].packet)}: {text}")
         self._effects = [
             [(kind, address, data) for kind, address, data in effects if address not in self._own]
             for effects in answer.get("effects", [[] for _ in batch])
@@ -120,7 +125,8 @@ class RtlTarget:
         return zlib.crc32(raw) % len(SPEED_NAMES)
 
     def interface_violations(self) -> list[str]:
-        """Interface rules broken since the last call (one line each, signature first)."""
+        """Interface rules broken since the last call, one line each, signature first:
+        the rule, then the family of the packet being answered (``no-grant:read: ...``)."""
         found, self._interface = self._interface, []
         return found
 
@@ -149,7 +155,8 @@ class RtlTarget:
         self.sim = self._start()
 
     def close(self) -> None:
-        self.sim.close()
+        # The next campaign of this process with the same design starts on it at once.
+        park(self.sim)
 
 
 def open_rtl(

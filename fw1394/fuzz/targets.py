@@ -14,6 +14,7 @@ Target specifications:
 from __future__ import annotations
 
 from fw1394.boards.registry import BOARDS, known_defects
+from fw1394.fuzz.bustarget import BusTarget
 from fw1394.fuzz.clock import SimulatedClock, WallClock
 from fw1394.fuzz.contract import CONTRACTS, contract_path
 from fw1394.fuzz.offsets import OffsetModel, offset_model
@@ -21,6 +22,7 @@ from fw1394.fuzz.reference import Reference
 from fw1394.fuzz.settings import RTL_DEFAULTS, Settings, SettingsError, default_policy
 from fw1394.fuzz.target import Target
 from fw1394.fuzz.trial import Trial
+from fw1394.transport.sansio.config import BusNameError, parse_bus_node
 
 SCHEMES = ("inproc", "bus", "udp", "rtl")
 
@@ -51,6 +53,8 @@ def check(settings: Settings) -> None:
     for kind in (rest if scheme == "inproc" else None, settings.model):
         if kind is not None and kind not in BOARDS:
             raise SettingsError(f"unknown board kind {kind!r}; known kinds: {', '.join(kinds())}")
+    if scheme == "bus":
+        bus_node(rest)
     if scheme != "rtl" and any(getattr(settings, k) != v for k, v in RTL_DEFAULTS.items()):
         raise SettingsError("--speed and --sclk-mhz are for rtl: targets")
     if scheme == "inproc":
@@ -87,7 +91,8 @@ def open_target(settings: Settings) -> Target:
     if scheme == "bus":
         from fw1394.fuzz.bustarget import BusTarget
 
-        return BusTarget.open(rest, timeout=settings.timeout)
+        name, node = bus_node(rest)
+        return BusTarget.open(name, node, timeout=settings.timeout)
     if scheme == "rtl":
         from fw1394.fuzz.rtl_target import open_rtl
 
@@ -113,6 +118,15 @@ def open_target(settings: Settings) -> Target:
     )
 
 
+def bus_node(spec: str) -> tuple[str, int]:
+    """The bus name and physical ID of ``bus:NAME/NODE`` (``spec`` is what follows
+    ``bus:``), read by the one parser of that syntax the bench uses too."""
+    try:
+        return parse_bus_node(spec)
+    except BusNameError as error:
+        raise SettingsError(str(error)) from None
+
+
 def reference_for(settings: Settings, target: Target) -> Reference:
     """A fresh reference model of the target under the settings' contract."""
     return Reference(
@@ -122,6 +136,7 @@ def reference_for(settings: Settings, target: Target) -> Reference:
         CONTRACTS[settings.contract],
         twin=not target.restartable,
         path=contract_path(settings.contract, settings.eth1394),
+        rom=target.rom_identity() if isinstance(target, BusTarget) else None,
     )
 
 

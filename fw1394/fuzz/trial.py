@@ -263,7 +263,9 @@ class Trial:
             return []
         self.checks["interface"] += 1
         return [
-            Violation("interface", line.split(":")[0], "the PHY-link interface rules kept", line)
+            Violation(
+                "interface", line.partition(": ")[0], "the PHY-link interface rules kept", line
+            )
             for line in take()
         ]
 

@@ -34,10 +34,6 @@ class FlatField:
     def mask(self) -> int:
         return (1 << self.width) - 1
 
-    @property
-    def is_whole_unit(self) -> bool:
-        return self.width == 8 * self.byte_size
-
 
 def _is_bit_struct(subcon: Any) -> bool:
     return isinstance(subcon, construct.Transformed) and isinstance(subcon.subcon, construct.Struct)

@@ -170,7 +170,7 @@ def _phy_summary(packet: PhyPacket) -> str:
             continue
         if value is True:
             shown.append(key)
-        elif key.startswith("port") and len(key) <= 5:
+        elif key.startswith("port") and len(key) == 5:
             if value != PortStatus.none:
                 shown.append(f"{key}={name_of(PortStatus, value)}")
         elif key == "scode":
@@ -202,7 +202,7 @@ def _meaning(key: str, value: Any) -> str:
         return name_of(ENUM_OF_FIELD[key], value)
     if key in ("destination_id", "source_id"):
         return f"bus {value >> 6:#x}, node {value & 0x3F}"
-    if key.startswith("port") and len(key) <= 5:
+    if key.startswith("port") and len(key) == 5:
         return name_of(PortStatus, value)
     return ""
 

@@ -12,6 +12,7 @@ RTL_DEFECTS = {
     "unbounded-block": "blocks longer than 2048 bytes are served",
     "early-ack": "a block write is acked from its header, before its data CRC is known",
     "long-hold": "Hold is kept 60 cycles before a read response",
+    "long-write-hold": "Hold is kept 60 cycles before a write's ack",
     "no-second-grant": "a read response follows its ack at once, without the PHY's second Grant",
     "no-closing-idle": "the link releases the interface without the closing Idle",
     "bad-crc-write": "a quadlet write whose header CRC fails is performed (ack_data_error)",

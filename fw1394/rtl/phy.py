@@ -19,7 +19,7 @@ from __future__ import annotations
 from collections import deque
 from typing import Any, NamedTuple
 
-from cocotb.triggers import FallingEdge
+from cocotb.triggers import FallingEdge, ValueChange
 
 from fw1394.rtl.portmap import (
     MON_BLK_RD,
@@ -57,6 +57,13 @@ REQUEST_BITS = {0: 4, 1: 4, 2: 4, 3: 4, 4: 5, 5: 13, 6: 2}
 BUS_REQUESTS = {0: "ImmReq", 1: "IsoReq", 2: "PriReq", 3: "FairReq"}
 #: A link granted the bus must start driving within this many cycles.
 GRANT_TIMEOUT = 8
+#: The PHY drives the interface Idle (the word the model drives between events).
+ON_IDLE = 1 << 10
+#: What a run of the harness's runner waits for besides a cycle the model must see:
+#: nothing (its words or cycles end), LREQ quiet, the link no longer busy.
+UNTIL_END, UNTIL_QUIET, UNTIL_SETTLED = 0, 1, 2
+#: Words the runner plays, and bytes it captures, in one run.
+RUN_SLOTS = 64
 
 
 class Limits(NamedTuple):
@@ -95,6 +102,16 @@ class _Tenure(NamedTuple):
     #: The link asked for the next packet to be concatenated (Hold, then Idle).
     concatenate: bool
     cycles: int
+
+
+class _Run(NamedTuple):
+    #: The ``mon`` word of the last cycle (observed as a step's).
+    mon: int
+    cycles: int
+    #: LREQ quiet cycles after the last (for :data:`UNTIL_QUIET`).
+    quiet: int
+    #: D of the Transmit cycles before the last, when capturing.
+    captured: list[int]
 
 
 class Effect(NamedTuple):
@@ -155,6 +172,10 @@ class Phy:
         #: The register bus has no read strobe: read data follows the address.
         self.poll_reads = poll_reads and registers is not None
         self._polled: int | None = None
+        #: Cycles without events run inside the simulator (the harness's runner); a
+        #: polled register bus needs a look at every cycle.
+        self.runner = not self.poll_reads
+        self._runs = 0
 
     def set_id(self) -> None:
         # Physical_ID, R (root), PS (cable power)
@@ -171,13 +192,16 @@ class Phy:
         self.cycles += 1
         value = self.dut.mon.value
         if value.is_resolvable:
-            mon = int(value.to_unsigned())
-        else:
-            # X and Z read as 0; a link that drives them is told off below.
-            mon = int("".join(c if c in "01" else "0" for c in str(value)), 2)
-            if mon >> MON_OE & 1:
-                self._violate("undriven-bits", "the link drives X or Z bits on CTL or D")
+            return self._observe(int(value.to_unsigned()), False, on)
+        # X and Z read as 0; a link that drives them is told off.
+        mon = int("".join(c if c in "01" else "0" for c in str(value)), 2)
+        return self._observe(mon, True, on)
+
+    def _observe(self, mon: int, undriven: bool, on: bool) -> int:
+        """Judge and serve one cycle's ``mon`` word (``undriven``: it had X or Z bits)."""
         if mon >> MON_OE & 1:
+            if undriven:
+                self._violate("undriven-bits", "the link drives X or Z bits on CTL or D")
             self.driven += 1
             self.driven_ctl.add(mon >> MON_CTL & 3)
             if on:
@@ -192,6 +216,94 @@ class Phy:
         if self.poll_reads:
             self._poll()
         return mon
+
+    # -- many cycles at once ----------------------------------------------------------
+    async def _run(
+        self,
+        words: list[int],
+        *,
+        hold: int = ON_IDLE,
+        cycles: int = 0,
+        until: int = UNTIL_END,
+        capture: bool = False,
+        quiet: tuple[int, int] = (0, 0),
+    ) -> _Run:
+        """Let the harness's runner drive ``words`` (or ``hold`` up to ``cycles``) and stop
+        at the first cycle the model must see; that cycle is observed as a step is."""
+        bits = self._lreq_bits
+        need = 0
+        if bits is not None and len(bits) >= 3:
+            need = 3 + REQUEST_BITS.get(bits[0] << 2 | bits[1] << 1 | bits[2], 0)
+        value = 0
+        for bit in bits or ():
+            value = value << 1 | bit
+        self._runs = (self._runs + 1) & 0xFF
+        count = len(words) if words else cycles
+        command = (
+            bool(words)
+            | capture << 1
+            | until << 2
+            | (self.server is not None) << 4
+            | hold << 5
+            | count << 16
+            | quiet[0] << 40
+            | quiet[1] << 64
+            | (bits is not None) << 80
+            | len(bits or ()) << 81
+            | value << 86
+            | need << 102
+            | self._runs << 107
+        )
+        dut = self.dut
+        if words:
+            dut.run_words.value = sum(word << 16 * k for k, word in enumerate(words))
+        dut.run_cmd.value = command
+        await ValueChange(dut.run_done)
+        report = int(dut.run_report.value.to_unsigned())
+        self._drive = -1
+        ran = report >> 20 & 0xFFFFFF
+        self.cycles += ran
+        held = report >> 84 & 0x1F
+        lq = report >> 68 & 0xFFFF
+        for k in range(held - 1, -1, -1):
+            self._lreq(lq >> k & 1)
+        captured: list[int] = []
+        taken = report >> 89 & 0x7F
+        if taken:
+            data = int(dut.run_capture.value.to_unsigned())
+            captured = [data >> 8 * k & 0xFF for k in range(taken)]
+            self.driven += taken
+            self.driven_ctl.add(TRANSMIT)
+        on = (words[ran - 1] if words else hold) >> 10 & 1
+        mon = self._observe(report & 0x7FFFF, bool(report >> 19 & 1), bool(on))
+        return _Run(mon, ran, report >> 44 & 0xFFFFFF, captured)
+
+    async def play(self, words: list[int]) -> int:
+        """Drive each of ``words`` (``on << 10 | ctl << 8 | d``) for one cycle, as
+        stepping them would; the ``mon`` word after the last."""
+        if not self.runner:
+            mon = 0
+            for word in words:
+                mon = await self.step(bool(word >> 10 & 1), word >> 8 & 3, word & 0xFF)
+            return mon
+        mon = 0
+        while words:
+            run = await self._run(words[:RUN_SLOTS])
+            mon, words = run.mon, words[run.cycles :]
+        return mon
+
+    async def hold(
+        self, cycles: int, *, until: int = UNTIL_END, quiet: tuple[int, int] = (0, 0)
+    ) -> _Run:
+        """Hold the interface Idle at most ``cycles`` cycles; stop early at a cycle the
+        model must look at or when ``until`` holds (:data:`UNTIL_QUIET`: LREQ quiet
+        ``quiet[1]`` cycles, counting from ``quiet[0]``, and no request being
+        received; :data:`UNTIL_SETTLED`: the link not busy and no request)."""
+        if not self.runner:
+            mon = await self.step()
+            count = 0 if mon >> MON_LREQ & 1 else quiet[0] + 1
+            return _Run(mon, 1, count, [])
+        return await self._run([], cycles=cycles, until=until, quiet=quiet)
 
     def _effect(self, mon: int) -> None:
         address = _unsigned(self.dut.fx_addr.value)
@@ -278,15 +390,16 @@ class Phy:
     # -- what the PHY sends -------------------------------------------------------------
     async def idle(self, cycles: int) -> int:
         mon = 0
-        for _ in range(cycles):
-            mon = await self.step()
+        while cycles > 0:
+            run = await self.hold(cycles)
+            mon, cycles = run.mon, cycles - run.cycles
         return mon
 
     async def status(self, bits: list[int]) -> None:
         """A status transfer: S0, S1, ... two bits a cycle on D0 and D1."""
-        for k in range(0, len(bits), 2):
-            await self.step(True, STATUS, bits[k] << 7 | bits[k + 1] << 6)
-        await self.step()
+        status = ON_IDLE | STATUS << 8
+        words = [status | bits[k] << 7 | bits[k + 1] << 6 for k in range(0, len(bits), 2)]
+        await self.play([*words, ON_IDLE])
 
     async def register_status(self, address: int, *, bus_reset: bool = False) -> None:
         value = self.registers[address]
@@ -305,27 +418,27 @@ class Phy:
         register 0 and cut it after that many cycles, as a PHY does when a packet
         arrives meanwhile.
         """
-        step = self.step
+        words = []
         if interrupting:
             value = self.registers[0]
             bits = [0] * 8 + [value >> (7 - i) & 1 for i in range(8)]
+            status = ON_IDLE | STATUS << 8
             for k in range(0, min(2 * interrupting, 14), 2):
-                await step(True, STATUS, bits[k] << 7 | bits[k + 1] << 6)
-        await step(True, RECEIVE, 0xFF)
-        await step(True, RECEIVE, 0xFF)
+                words.append(status | bits[k] << 7 | bits[k + 1] << 6)
+        receiving = ON_IDLE | RECEIVE << 8
+        words += [receiving | 0xFF, receiving | 0xFF]
         if raw:
-            await step(True, RECEIVE, SPEED_CODES[speed])
+            words.append(receiving | SPEED_CODES[speed])
             if speed == S400:
-                for byte in raw:
-                    await step(True, RECEIVE, byte)
+                words += [receiving | byte for byte in raw]
             else:
                 width = SPEED_BITS[speed]
                 mask = (1 << width) - 1
                 for byte in raw:
                     for shift in range(8 - width, -1, -width):
                         # The symbol on the top lines (D0 first), the rest low.
-                        await step(True, RECEIVE, (byte >> shift & mask) << (8 - width))
-        await step()
+                        words.append(receiving | (byte >> shift & mask) << (8 - width))
+        await self.play([*words, ON_IDLE])
 
     async def bus_reset(self) -> None:
         """Status with S2 and register 0, then this node's self-ID packet."""
@@ -369,8 +482,7 @@ class Phy:
             cycles += tenure.cycles
             if not tenure.concatenate:
                 break
-            for _ in range(PACKET_SEPARATION - 2):  # the release and turnaround were the first
-                await self.step()
+            await self.idle(PACKET_SEPARATION - 2)  # the release and turnaround were the first
             cycles += PACKET_SEPARATION - 2
         return Capture(packets, first_byte if first_byte is not None else -1)
 
@@ -391,9 +503,28 @@ class Phy:
         concatenate = False
         cycles = 2
         driving = False
-        for _ in range(self.limits.own):
-            mon = await step(False)
-            cycles += 1
+        owned = 0
+        while True:
+            if owned >= self.limits.own:
+                self._violate("ownership", f"the link kept the bus {self.limits.own} cycles")
+                break
+            if phase == "data" and self.runner:
+                # The packet's Transmit cycles run inside the simulator, captured.
+                run = await self._run([], hold=0, cycles=self.limits.own - owned, capture=True)
+                mon = run.mon
+                owned += run.cycles
+                cycles += run.cycles
+                for data in run.captured:
+                    assert current is not None
+                    symbol = symbol << width | data >> (8 - width)
+                    symbols += width
+                    if symbols == 8:
+                        current.append(symbol)
+                        symbol = symbols = 0
+            else:
+                mon = await step(False)
+                owned += 1
+                cycles += 1
             driving = bool(mon >> MON_OE & 1)
             if not driving:
                 if phase == "take":
@@ -458,8 +589,6 @@ class Phy:
                 current = None
                 concatenate = ctl == HOLD
                 phase = "end"
-        else:
-            self._violate("ownership", f"the link kept the bus {self.limits.own} cycles")
         if current is not None:
             packets.append(bytes(current))
         if driving:
@@ -504,9 +633,11 @@ class Phy:
                 await self.service()
                 quiet = 0
                 continue
-            mon = await self.step()
-            waited += 1
-            quiet = 0 if mon >> MON_LREQ & 1 else quiet + 1
+            # Idle until a request, a cycle to look at, the silence, or the limit.
+            left = self.limits.answer - (self.cycles - start) + 1
+            run = await self.hold(left, until=UNTIL_QUIET, quiet=(quiet, self.ack_gap))
+            waited += run.cycles
+            quiet = run.quiet
         await self._settle()
         return self._reply(captures)._replace(effects=self.effects)
 
@@ -518,9 +649,12 @@ class Phy:
         return len(ack) != 1 or ack[0] >> 4 != 0x2 or len(packets) > 1
 
     async def _settle(self) -> None:
-        for _ in range(self.limits.busy):
-            mon = await self.step()
-            if not mon >> MON_BUSY & 1 and not self.lreq_busy and not self.requests:
+        left = self.limits.busy
+        while left > 0:
+            # Pending requests are served after one cycle, as ever.
+            run = await self.hold(1 if self.requests else left, until=UNTIL_SETTLED)
+            left -= run.cycles
+            if not run.mon >> MON_BUSY & 1 and not self.lreq_busy and not self.requests:
                 return
             if self.requests:
                 await self._service_outside()

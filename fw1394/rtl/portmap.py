@@ -318,7 +318,14 @@ def harness_verilog(portmap: PortMap) -> str:
         # Every pin the harness drives gets its time-0 value from an assignment
         # after a #0, when every always block of the design already waits: so the
         # change from X is an event, and `always @(flag)` wrappers run at time 0.
-        "    reg sclk = 1'b0;  // cocotb's clock drives it",
+        "    reg sclk = 1'b0;",
+        # SCLK runs here, not from Python (each edge from Python would cost more than
+        # a cycle of the design): it starts when the PHY model sets the half period.
+        "    integer sclk_half_ps = 0;",
+        "    always @(sclk_half_ps) if (sclk_half_ps > 0) begin : sclk_source",
+        "        sclk = 1'b1;",
+        "        forever #(sclk_half_ps * 0.001) sclk = ~sclk;",
+        "    end",
         "    reg rst;",
         "    reg [10:0] phy;",
         "    reg [31:0] reg_rdata;",
@@ -412,6 +419,7 @@ def harness_verilog(portmap: PortMap) -> str:
         "    wire [18:0] mon = {fx_rd, fx_wr, reg_blk_wr, reg_wr, reg_blk_rd, reg_rd, busy, lreq,",
         "                       link_oe,",
         "                       link_oe ? link_ctl : 2'b00, link_oe ? link_d : 8'h00};",
+        '`include "fw1394_phy_runner.vh"',
         f"    {portmap.top} {_overrides(portmap.parameters)}dut (",
         "        " + ",\n        ".join(connections),
         "    );",

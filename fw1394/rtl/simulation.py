@@ -9,6 +9,7 @@ that dies or stops answering is reported as :class:`SimulationError`.
 
 from __future__ import annotations
 
+import atexit
 import hashlib
 import json
 import os
@@ -148,11 +149,29 @@ class Simulation:
         waves: Path | None = None,
         stuck_after: float = STUCK_AFTER,
         sclk_mhz: float = 49.152,
+        every_cycle: bool = False,
     ) -> None:
+        """``every_cycle``: the PHY model steps every SCLK cycle from Python instead of
+        letting the simulator run between events (slow; the reference the fast way
+        is checked against)."""
         import cocotb_tools.config
 
         self.portmap = portmap
         self.stuck_after = stuck_after
+        #: What a simulation must match to be used again (see :func:`start`).
+        self.key = _key(
+            portmap,
+            {
+                "physical_id": physical_id,
+                "board_id": board_id,
+                "defines": defines,
+                "board_defects": board_defects,
+                "sclk_mhz": sclk_mhz,
+                "every_cycle": every_cycle,
+            },
+        )
+        self.waves = waves
+        self._owner = os.getpid()
         fst = waves is not None and waves.suffix == ".fst"
         vvp = build(portmap, defines=defines, waves=waves)
         listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
@@ -165,6 +184,7 @@ class Simulation:
             "board_id": board_id,
             "defects": list(board_defects),
             "sclk_mhz": sclk_mhz,
+            "every_cycle": every_cycle,
         }
         # The simulator's own output, kept for the error message if it dies.
         self._log = tempfile.TemporaryFile()  # noqa: SIM115
@@ -252,9 +272,13 @@ class Simulation:
             message["speeds"] = speeds
         return self.request(message)
 
-    def restart(self) -> bool:
-        """Reset the design and the board behind it; whether it acks a valid read."""
-        acked: bool = self.request({"op": "restart"})["acked"]
+    def restart(self, *, check: bool = False) -> bool:
+        """Reset the design and the board behind it; ``check``: then see whether it acks
+        a valid read, as a fresh start does (:attr:`acked`, :attr:`probe`)."""
+        answer = self.request({"op": "restart", "check": check})
+        if check:
+            self.acked, self.probe = answer["acked"], answer["probe"]
+        acked: bool = answer["acked"]
         return acked
 
     def bus_reset(self, physical_id: int) -> None:
@@ -280,3 +304,63 @@ class Simulation:
         if hasattr(self, "sock"):
             self.sock.close()
         self._log.close()
+
+
+# -- simulations used again -------------------------------------------------------------
+#: Simulations whose campaign ended, kept to start the next campaign of the same build
+#: and options at once: a process that runs campaign after campaign (a Dask worker,
+#: a shrinker's replays) would otherwise pay vvp's and cocotb's start-up, more CPU
+#: than hundreds of cases, every time. A few at most, each reset before it is used.
+_PARKED: list[Simulation] = []
+_PARKED_AT_MOST = 2
+
+
+def _key(portmap: PortMap, options: dict[str, Any]) -> tuple[Any, ...]:
+    given = {**_KEYED, **{k: v for k, v in options.items() if k in _KEYED}}
+    return (portmap, *(tuple(v) if isinstance(v, (list, tuple)) else v for v in given.values()))
+
+
+#: The options that make two simulations different, with their defaults.
+_KEYED: dict[str, Any] = {
+    "physical_id": 0,
+    "board_id": 0,
+    "defines": (),
+    "board_defects": (),
+    "sclk_mhz": 49.152,
+    "every_cycle": False,
+}
+
+
+def start(portmap: PortMap, **options: Any) -> Simulation:
+    """A simulation of ``portmap`` as ``Simulation(portmap, **options)`` starts it: a
+    parked one of the same build and options, reset and checked again, if any."""
+    if options.get("waves") is None:
+        key = _key(portmap, options)
+        for sim in _PARKED:
+            if sim.key == key:
+                _PARKED.remove(sim)
+                try:
+                    sim.restart(check=True)
+                    return sim
+                except SimulationError:
+                    sim.close()
+                    break
+    return Simulation(portmap, **options)
+
+
+def park(sim: Simulation) -> None:
+    """Give back ``sim`` when its campaign ends: kept for :func:`start`, or closed."""
+    if sim.waves is not None or sim._owner != os.getpid() or not sim.alive():
+        sim.close()
+        return
+    _PARKED.append(sim)
+    while len(_PARKED) > _PARKED_AT_MOST:
+        _PARKED.pop(0).close()
+
+
+@atexit.register
+def _close_parked() -> None:
+    while _PARKED:
+        sim = _PARKED.pop()
+        if sim._owner == os.getpid():  # (a forked child leaves its parent's alone)
+            sim.close()

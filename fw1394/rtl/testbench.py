@@ -19,10 +19,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from cocotb.clock import Clock
 from cocotb.triggers import Timer
 
-from fw1394.rtl.cocotb_node import SCLK_MHZ, Node
+from fw1394.rtl.cocotb_node import SCLK_MHZ, Node, start_clock
 from fw1394.rtl.phy import SPEED_BITS, Effect, Phy, Reply
 from fw1394.rtl.portmap import SPEED_NAMES, harness_verilog, load
 
@@ -71,8 +70,7 @@ class PhyDriver:
     async def start(self) -> bool:
         """Start SCLK, reset the design, give it its node ID with a bus reset; whether
         it then acks a valid quadlet read (as a port map's check does)."""
-        half = round(1e6 / (2 * self.sclk_mhz))
-        Clock(self.dut.sclk, 2 * half, unit="ps").start()
+        start_clock(self.dut, self.sclk_mhz)
         await Timer(1, unit="ps")
         self._node.read_time_zero()
         return await self._node.start()

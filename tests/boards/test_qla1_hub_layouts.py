@@ -21,6 +21,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from fw1394.boards.qla1.board import Qla1Board
 
@@ -165,3 +167,22 @@ def test_a_block_read_of_hub_space_equals_its_quadlet_reads(firmware: int) -> No
     assert block == [hub.read_quadlet(start + n) for n in range(count)]
     tail = words(hub.read_block(0x17F0, 4 * 24))  # past hub memory into the query registers
     assert tail == [hub.read_quadlet(0x17F0 + n) for n in range(24)]
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    st.sampled_from([5, 7, 9]),
+    st.integers(0, 0xFFF),
+    st.integers(1, 700),
+    st.sampled_from([0, 0xFFFF_0000_0000, 0x1_0000]),
+)
+def test_any_hub_space_block_read_equals_its_quadlet_reads(
+    firmware: int, index: int, count: int, upper: int
+) -> None:
+    # A block steps bits 11..0 and keeps the space nibble: past 0x1FFF it wraps to 0x1000.
+    hub, *others = [make_board(board_id, firmware) for board_id in (0, 3, 6)]
+    run_round(hub, others, 0x0123, gaps=[2, 5])
+    start = upper | HUB | index
+    block = words(hub.read_block(start, 4 * count))
+    steps = [upper | HUB | (index + n) & 0xFFF for n in range(count)]
+    assert block == [hub.read_quadlet(offset) for offset in steps]

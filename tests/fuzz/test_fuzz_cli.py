@@ -64,6 +64,9 @@ def test_a_seed_repeats_a_run() -> None:
         data = report.to_json()
         for volatile in ("elapsed", "rate"):
             del data[volatile]
+        timeline = data["timeline"]
+        assert isinstance(timeline, list)
+        data["timeline"] = [{k: v for k, v in p.items() if k != "seconds"} for p in timeline]
         return data
 
     assert once() == once()
@@ -172,3 +175,28 @@ def test_a_forced_run_replaces_the_old_findings(findings_dir: Path) -> None:
     run = ("run", "inproc:memory", "--max-cases", "50", "--findings", str(findings_dir))
     assert fuzz(*run, "--force") == 0
     assert sorted(p.name for p in findings_dir.iterdir()) == ["notes.txt", "report.json"]
+
+
+def test_plot_draws_the_run_and_refuses_a_format_it_cannot_write(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    pytest.importorskip("matplotlib")
+    picture = tmp_path / "run.png"
+    status = fuzz(
+        "run", "inproc:memory", "--defect", "answers-other-node", "--max-cases", "2000",
+        "--findings", str(tmp_path / "found"), "--no-progress", "--plot", str(picture), "--json",
+    )  # fmt: skip
+    assert status == 1
+    report = json.loads(capsys.readouterr().out)
+    # A PNG (its signature, from the PNG specification), and a timeline that grows.
+    assert picture.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    timeline = report["timeline"]
+    assert timeline[0]["cases"] == 0 and timeline[-1]["cases"] == 2000
+    assert [p["cases"] for p in timeline] == sorted(p["cases"] for p in timeline)
+    assert timeline[-1]["findings"] == len(report["findings"])
+    assert timeline[-1]["bins_hit"] == len(report["coverage"]["bins"])
+    for bad in (["--plot", str(tmp_path / "run.txt")], ["--plot", "x.png", "--jobs", "2"]):
+        status = fuzz("run", "inproc:memory", "--max-cases", "10", *bad)
+        err = capsys.readouterr().err.strip().splitlines()
+        assert status == 2 and len(err) == 1 and "Traceback" not in err[0]
+    assert not (tmp_path / "run.txt").exists()

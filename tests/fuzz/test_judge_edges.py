@@ -11,7 +11,8 @@ from __future__ import annotations
 import struct
 
 from fw1394.engine import Reply
-from fw1394.fuzz.judge import describe, visible
+from fw1394.fuzz.judge import describe, difference, visible
+from fw1394.fuzz.reference import Certainty
 from fw1394.fuzz.target import Observation, Visibility
 from fw1394.packets import BlockReadResponse, QuadletReadResponse
 
@@ -91,3 +92,15 @@ def test_block_data_is_shown_up_to_sixteen_bytes() -> None:
     assert "data=" + bytes(range(16)).hex() + ")" in short
     assert "data=" + bytes(range(16)).hex() + "...)" in long
     assert "data_length=17 " in long
+
+
+def test_a_concatenated_response_where_a_split_one_was_expected_is_a_tenure_error() -> None:
+    response = QuadletReadResponse(
+        destination_id=0xFFC1, source_id=0xFFC0, tlabel=1, rcode=0, quadlet_data=1
+    )
+    split, concatenated = Reply(ACK_PENDING, response, False), Reply(ACK_PENDING, response, True)
+    for expected, observed in ((split, concatenated), (concatenated, split)):
+        assert difference(
+            expected, observed, Certainty.exact, Visibility(), node_bits_only=False
+        ) == ("tenure")
+    assert difference(split, split, Certainty.exact, Visibility(), node_bits_only=False) is None

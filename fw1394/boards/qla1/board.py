@@ -225,8 +225,14 @@ class Qla1Board:
         elif _space(_register_address(offset)) == Space.MAIN:
             words = self._rt_block_read(_register_address(offset), count)
         elif _space(_register_address(offset)) == Space.HUB:
-            # Hub memory is laid out once per read, not once per quadlet.
-            words = self.hub.read_registers(self._block_indices(offset, count), self._now)
+            # Hub memory is laid out once per read, not once per quadlet; a read that
+            # does not wrap within the space is a run of indices (hub space decodes
+            # every index as itself), sliced at once.
+            first = _register_address(offset)
+            if (first & BLOCK_INDEX_MASK) + count <= BLOCK_INDEX_MASK + 1:
+                words = self.hub.read_run(first, count, self._now)
+            else:
+                words = self.hub.read_registers(self._block_indices(offset, count), self._now)
         else:
             words = [self._read_index(index) for index in self._block_indices(offset, count)]
         return _quadlets_to_bytes(words)[:length]

@@ -215,6 +215,15 @@ class HubState:
                 words.append(self.read_register(index, now))
         return words
 
+    def read_run(self, first: int, count: int, now: int) -> list[int]:
+        """:meth:`read_registers` of ``first``, ``first + 1``, ... ``count`` indices: a
+        run inside hub memory is one slice of it (the host's read of 0x1000)."""
+        start = first - HUB_MEMORY_BASE
+        if start < 0 or start + count > HUB_MEMORY_QUADLETS:
+            return self.read_registers(range(first, first + count), now)
+        words = self.image(now)[start : start + count]
+        return words + [0] * (count - len(words))
+
     def read_register(self, index: int, now: int) -> int:
         """Quadlet at hub-space ``index`` (0x1000..0x1FFF); 0 where nothing is mapped."""
         if index == HUB_QUERY:

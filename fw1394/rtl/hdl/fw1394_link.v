@@ -161,6 +161,9 @@ module fw1394_link #(
     reg [5:0]  resp_tl;
     reg [15:0] resp_ndq;      // data quadlets sent
     reg [6:0]  hold_n;
+`ifdef FW1394_DEFECT_LONG_WRITE_HOLD
+    reg [6:0]  ack_hold_n = 7'd0;
+`endif
     reg [31:0] tx_q, tx_crc, fetched;
     reg [1:0]  tx_b;
     reg [15:0] tx_qi;         // quadlet of the packet being sent
@@ -412,10 +415,20 @@ module fw1394_link #(
                         ctl_o <= CTL_HOLD;
                         tx_byte <= 8'h00;
                         hold_n <= 7'd0;
+`ifdef FW1394_DEFECT_LONG_WRITE_HOLD
+                    end else if (is_write && ack_hold_n != 7'd60) begin
+                        // Hold before a write's ack, far beyond the 47 cycles allowed.
+                        ctl_o <= CTL_HOLD;
+                        tx_byte <= 8'h00;
+                        ack_hold_n <= ack_hold_n + 7'd1;
+`endif
                     end else begin
                         tx_state <= TX_ACK;
                         ctl_o <= CTL_DATA;
                         tx_byte <= {ack_code, ~ack_code};
+`ifdef FW1394_DEFECT_LONG_WRITE_HOLD
+                        ack_hold_n <= 7'd0;
+`endif
                     end
                 end
                 TX_ACK: begin
