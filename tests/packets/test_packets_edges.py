@@ -11,6 +11,8 @@
 
 from __future__ import annotations
 
+import struct
+
 import pytest
 
 from fw1394.packets import (
@@ -20,11 +22,13 @@ from fw1394.packets import (
     LockRequest,
     PacketError,
     QuadletReadRequest,
+    QuadletReadResponse,
     encode,
 )
+from fw1394.packets.accessors import SOURCE_ID, layout_reader
 from fw1394.packets.ack import Ack
 from fw1394.packets.asynchronous import decode_async
-from fw1394.packets.enums import PhyPacketType, PowerClass
+from fw1394.packets.enums import PhyPacketType, PowerClass, RCode, Speed, TCode
 from fw1394.packets.eth1394 import ExtraBytes
 from fw1394.packets.fast import encode_packet
 from fw1394.packets.fields import FieldSpec, Quadlets
@@ -118,6 +122,8 @@ def test_self_id_ports_are_shown_by_their_status() -> None:
     text = summary(packet)
     for shown in ("phy_id=1", "port0=parent", "port1=child", "port2=not_connected", "speed=S400"):
         assert shown in text.split()
+    values = {row[0]: row[1] for row in field_rows(packet)}
+    assert (values["link_active"], values["contender"], values["inverse_ok"]) == ("yes", "no", "ok")
     meanings = {row[0]: row[2] for row in field_rows(packet)}
     assert (meanings["port0"], meanings["port1"], meanings["port2"]) == (
         "parent",
@@ -244,3 +250,67 @@ def test_a_default_phy_config_packet_sets_the_gap_count_to_63() -> None:
     assert encode_phy(PhyConfigPacket()) == (
         quadlet.to_bytes(4, "big") + (quadlet ^ 0xFFFFFFFF).to_bytes(4, "big")
     )
+
+
+def test_a_block_write_request_takes_its_data_length_from_its_data_and_no_extended_tcode() -> None:
+    request = BlockWriteRequest(destination_id=0xFFC0, offset=0, data=b"abcde")
+    assert request.data_length == 5 and request.problems == ()
+    # Header quadlet 3 of a block write: data_length(16), extended_tcode(16) = 0.
+    assert encode(request)[12:16] == (5 << 16).to_bytes(4, "big")
+
+
+def test_codes_are_the_standards_numbers() -> None:
+    # IEEE 1394-1995 transaction, response and ack codes; extended tcodes of lock
+    # requests; speed codes (S800 from 1394b).
+    assert {c.name: c.value for c in TCode} == {
+        "write_quadlet_request": 0x0,
+        "write_block_request": 0x1,
+        "write_response": 0x2,
+        "read_quadlet_request": 0x4,
+        "read_block_request": 0x5,
+        "read_quadlet_response": 0x6,
+        "read_block_response": 0x7,
+        "cycle_start": 0x8,
+        "lock_request": 0x9,
+        "stream_data": 0xA,
+        "lock_response": 0xB,
+    }
+    assert {c.name: c.value for c in RCode} == {
+        "resp_complete": 0x0,
+        "resp_conflict_error": 0x4,
+        "resp_data_error": 0x5,
+        "resp_type_error": 0x6,
+        "resp_address_error": 0x7,
+    }
+    assert {c.name: c.value for c in AckCode} == {
+        "ack_complete": 0x1,
+        "ack_pending": 0x2,
+        "ack_busy_X": 0x4,
+        "ack_busy_A": 0x5,
+        "ack_busy_B": 0x6,
+        "ack_tardy": 0xB,
+        "ack_conflict_error": 0xC,
+        "ack_data_error": 0xD,
+        "ack_type_error": 0xE,
+        "ack_address_error": 0xF,
+    }
+    assert [c.value for c in ExtendedTCode] == [1, 2, 3, 4, 5, 6, 7]
+    assert [(c.name, c.value) for c in Speed] == [
+        ("S100", 0),
+        ("S200", 1),
+        ("S400", 2),
+        ("S800", 3),
+    ]
+
+
+def test_field_readers_find_header_fields_at_their_standard_bytes() -> None:
+    # A quadlet read response: quadlet 1 is source_ID(16) rcode(4) reserved(12), quadlet 3
+    # the data; so source_ID is bytes 4-5, rcode the high nibble of byte 6, data bytes 12-15.
+    raw = struct.pack(">IIII", 0xFFC1 << 16 | 5 << 10 | 6 << 4, 0xFFC2 << 16 | 7 << 12, 0, 0x1234)
+    assert SOURCE_ID.byte_span == (4, 2, 0) and SOURCE_ID.of_bytes(raw) == 0xFFC2
+    rcode, data = layout_reader(6, "rcode"), layout_reader(6, "quadlet_data")
+    assert rcode.byte_span == (6, 1, 4) and rcode.of_bytes(raw) == 7
+    assert data.byte_span == (12, 4, 0) and data.of_bytes(raw) == 0x1234
+    response = decode_async(raw + bytes(4))
+    assert isinstance(response, QuadletReadResponse)
+    assert (response.source_bus, response.source_node) == (0x3FF, 2)
