@@ -8,8 +8,10 @@ pass), a concatenated response follows its ack with nothing in between, a split
 response is a packet of its own that arrives ``split_delay`` later, and a bus
 reset destroys everything in flight.
 
-A :class:`Faults` model, driven by ``random.Random(seed)``, can drop, duplicate,
-delay, reorder and corrupt packets and lose acks. Everything that crosses the
+The fault model of a bus member (:class:`~fw1394.engine.faults.FaultConfig`,
+through the same :class:`~fw1394.engine.faults.FaultInjector`), driven by
+``random.Random(seed)``, loses, duplicates and delays packets; here it also
+reorders and corrupts them and loses acks. Everything that crosses the
 link is kept, in arrival order, as :class:`Exchange` records in ``link.trace``.
 
 Typical use::
@@ -29,6 +31,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
+from fw1394.engine.faults import FaultConfig, FaultInjector
 from fw1394.engine.requester import Requester
 from fw1394.engine.responder import Responder, decode_received
 from fw1394.packets import (
@@ -41,25 +44,6 @@ from fw1394.packets.fast import decode_sound, encode_packet
 from fw1394.packets.nodeid import BROADCAST_ID, is_broadcast
 
 _WRITES = (QuadletWriteRequest, BlockWriteRequest)
-
-
-@dataclass(frozen=True, slots=True)
-class Faults:
-    """Probabilities (0..1) of what can go wrong with each packet or ack."""
-
-    #: The packet is lost.
-    drop: float = 0.0
-    #: The packet arrives a second time, up to ``max_delay`` after the first.
-    duplicate: float = 0.0
-    #: The packet is held up for up to ``max_delay``.
-    delay: float = 0.0
-    #: The packet is held until everything already in flight has arrived.
-    reorder: float = 0.0
-    #: One bit of the packet flips (the CRCs will tell).
-    corrupt: float = 0.0
-    #: The requester never hears the ack a node sent.
-    lose_ack: float = 0.0
-    max_delay: float = 0.010
 
 
 @dataclass(frozen=True, slots=True)
@@ -99,7 +83,7 @@ class Link:
         requester: Requester,
         responders: Iterable[Responder] = (),
         *,
-        faults: Faults | None = None,
+        faults: FaultConfig | None = None,
         seed: int = 0,
         split_delay: float = 0.0,
         report_missing_acks: bool = True,
@@ -109,8 +93,9 @@ class Link:
     ) -> None:
         self.requester = requester
         self.responders = list(responders)
-        self.faults = faults or Faults()
+        self.faults = faults or FaultConfig()
         self.random = random.Random(seed)
+        self._injector = FaultInjector(self.faults, self.random)
         #: How long after its ack a split response arrives.
         self.split_delay = split_delay
         #: Tell the requester at once when no node acked (else its ack timeout does).
@@ -180,7 +165,8 @@ class Link:
         self, packet: RoutedPacket, now: float, *, to_requester: bool, concatenated: bool = False
     ) -> None:
         faults, chance = self.faults, self.random.random
-        if faults.drop and chance() < faults.drop:
+        times = self._injector.send_times(now)
+        if not times:
             self._record_packet(now, packet, to_requester, concatenated, ("dropped",))
             return
         raw = encode_packet(packet)
@@ -196,8 +182,8 @@ class Link:
         if not concatenated:
             if to_requester:
                 when += self.split_delay
-            if faults.delay and chance() < faults.delay:
-                when += self.random.uniform(0.0, faults.max_delay)
+            if times[0] > now:
+                when += times[0] - now
                 marks += ("delayed",)
             if faults.reorder and self._in_flight and chance() < faults.reorder:
                 when = max(when, max(entry[0] for entry in self._in_flight))
@@ -208,9 +194,9 @@ class Link:
             self._deliver(delivery)
         else:
             self._schedule(when, delivery)
-        if faults.duplicate and chance() < faults.duplicate:
+        if len(times) > 1:  # the copy right behind the packet
             copy = delivery._replace(concatenated=False, faults=(*marks, "duplicate"))
-            self._schedule(when + self.random.uniform(0.0, faults.max_delay), copy)
+            self._schedule(when, copy)
 
     def _schedule(self, when: float, delivery: _Delivery) -> None:
         self._sequence += 1

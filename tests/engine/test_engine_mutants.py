@@ -18,7 +18,8 @@ import pytest
 from fw1394.boards.memory.board import MemorySpace
 from fw1394.engine import Requester
 from fw1394.engine.defects import DefectiveResponder
-from fw1394.engine.loopback import Faults, Link
+from fw1394.engine.faults import FaultConfig
+from fw1394.engine.loopback import Link
 from fw1394.engine.policy import POLICIES
 from fw1394.packets import QuadletReadRequest, QuadletReadResponse
 from fw1394.packets.fast import decode_packet, encode_packet
@@ -55,7 +56,7 @@ def _flipped_bits(seed: int) -> list[int]:
     corrupting loopback delivered differs from the one the requester sent."""
     requester = Requester(0xFFC1, ack_timeout=0.01, split_timeout=0.01)
     responder = DefectiveResponder(0xFFC0, MemorySpace(64), POLICIES["thesis"])
-    link = Link(requester, [responder], faults=Faults(corrupt=1.0), seed=seed)
+    link = Link(requester, [responder], faults=FaultConfig(corrupt=1.0), seed=seed)
     requester.write_quadlet(0xFFC0, 4, 0x0123_4567, link.now)
     link.run(until=0.001)
     (sent,) = [e for e in link.trace if e.kind == "request" and "corrupted" in e.faults]
@@ -82,7 +83,7 @@ def test_the_corruption_fault_flips_one_bit_anywhere_in_the_packet() -> None:
 
 def test_a_corrupted_request_fails_its_crc_check() -> None:
     requester = Requester(0xFFC1)
-    link = Link(requester, [], faults=Faults(corrupt=1.0), seed=3)
+    link = Link(requester, [], faults=FaultConfig(corrupt=1.0), seed=3)
     requester.read_quadlet(0xFFC0, 0, link.now)
     link.run(until=0.001)
     (sent,) = [e for e in link.trace if e.kind == "request"]

@@ -45,7 +45,8 @@ from fw1394.engine import (
     UnexpectedResponse,
     WriteCompleted,
 )
-from fw1394.engine.loopback import Faults, Link
+from fw1394.engine.faults import FaultConfig
+from fw1394.engine.loopback import Link
 from fw1394.engine.space import AddressError, BusyError, DataError, TypeError1394
 from fw1394.packets import AckCode, ExtendedTCode
 
@@ -134,14 +135,14 @@ policies = st.builds(
 )
 chances = st.sampled_from([0.0, 0.0, 0.05, 0.3])
 faults = st.builds(
-    Faults,
-    drop=chances,
+    FaultConfig,
+    loss=chances,
     duplicate=chances,
     delay=chances,
     reorder=chances,
     corrupt=chances,
     lose_ack=chances,
-    max_delay=st.sampled_from([0.001, 0.020]),
+    delay_seconds=st.sampled_from([0.001, 0.020]),
 )
 
 
@@ -160,7 +161,7 @@ class EngineMachine(RuleBasedStateMachine):
     def build(
         self,
         node_policies: list[ResponderPolicy],
-        fault_model: Faults,
+        fault_model: FaultConfig,
         seed: int,
         retry_protocol: str,
         split_delay: float,
