@@ -14,17 +14,36 @@ import argparse
 import sys
 from typing import TYPE_CHECKING, Any
 
-from fw1394.cli.bus import host_port
 from fw1394.cli.common import CliError
+from fw1394.node.description import bus_config, faults, timing
 
 if TYPE_CHECKING:
     from fw1394.host.adapter_port import AdapterPort
     from fw1394.host.bus_port import BusPort
     from fw1394.transport.sansio.wire import MemberInfo
 
+__all__ = ["add_attach_options", "host_member", "host_port", "open_port"]
+
 #: Longest wait for one reply from the adapter: its own transaction timeouts (1 s ack,
 #: 1 s split, three busy retries) end every transaction before.
 ADAPTER_REPLY_TIMEOUT = 10.0
+
+
+def host_port(args: argparse.Namespace) -> BusPort:
+    """A host port on the bus the options name, waiting ``--timeout`` per transaction."""
+    from fw1394.host.bus_port import BusPort
+
+    config = bus_config(args)
+    try:
+        return BusPort(
+            config,
+            ack_timeout=args.timeout,
+            split_timeout=args.timeout,
+            timing=timing(args),
+            faults=faults(args),
+        )
+    except OSError as error:  # the socket: say which bus it was for
+        raise CliError(f"cannot join bus {config.name!r}: {error}") from None
 
 
 def add_attach_options(parser: argparse.ArgumentParser) -> None:
@@ -38,7 +57,7 @@ def add_attach_options(parser: argparse.ArgumentParser) -> None:
 
 def open_port(args: argparse.Namespace) -> AdapterPort | BusPort:
     """The adapter of bus ``--name``, or a host member of its own (see the module)."""
-    from fw1394.host.adapter_port import AdapterError, AdapterPort, NoAdapterError
+    from fw1394.host.adapter_port import AdapterPort, NoAdapterError
 
     if getattr(args, "own_member", False):
         return host_port(args)
@@ -52,8 +71,6 @@ def open_port(args: argparse.Namespace) -> AdapterPort | BusPort:
                 file=sys.stderr,
             )
         return host_port(args)
-    except AdapterError as error:
-        raise CliError(str(error)) from None
 
 
 def host_member(port: Any) -> MemberInfo:
@@ -67,11 +84,3 @@ def host_member(port: Any) -> MemberInfo:
         return members[port.phy_id]
     info: MemberInfo = port.station.info
     return info
-
-
-def port_errors() -> tuple[type[Exception], ...]:
-    """Errors of reaching the bus (not of one transaction): one line for the user."""
-    from fw1394.host.adapter_port import AdapterError
-    from fw1394.transport.bus_host import BusError
-
-    return (AdapterError, BusError)

@@ -15,12 +15,11 @@ round trip on different CPUs).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
 
-from fw1394.cli.common import CliError
+from fw1394.cli.common import CliError, print_json
 
 EXAMPLES = """\
 examples:
@@ -131,13 +130,12 @@ def _settings(args: argparse.Namespace) -> Any:
 
 def run_bench_command(args: argparse.Namespace) -> int:
     from fw1394.boards import BOARDS
-    from fw1394.experiments.connect import TargetUnavailable, parse_target
+    from fw1394.experiments.connect import parse_target
     from fw1394.experiments.report_text import render
     from fw1394.experiments.results import digest
     from fw1394.experiments.run import run_bench
     from fw1394.experiments.timing import MeasurementError
     from fw1394.progress import Progress
-    from fw1394.transport.eth1394_addresses import AddressRefusedError
 
     settings = _settings(args)
     try:
@@ -159,21 +157,18 @@ def run_bench_command(args: argparse.Namespace) -> int:
             progress=progress,
             timeout=args.timeout,
         )
-    except (TargetUnavailable, AddressRefusedError) as error:
-        raise CliError(str(error)) from None
     except MeasurementError as error:
         print(f"fw1394: bench failed: {error}", file=sys.stderr)
         return 1
     numbers = digest(result)
     if args.plots is not None:
         # Imported only here: plotting pulls in matplotlib and the capture package's helpers.
-        from fw1394.capture.views.trace_plots import PlotError
         from fw1394.experiments.figures import write_plots
 
-        try:
-            paths = write_plots(result, numbers, args.plots)
-        except PlotError as error:
-            raise CliError(str(error)) from None
+        paths = write_plots(result, numbers, args.plots)
         numbers["plots"] = [str(path) for path in paths]
-    print(json.dumps(numbers) if args.json else render(numbers), end="\n" if args.json else "")
+    if args.json:
+        print_json(numbers)
+    else:
+        print(render(numbers), end="")
     return 0

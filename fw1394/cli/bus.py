@@ -4,32 +4,28 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, Any, TypeVar
+from collections.abc import Sequence
+from typing import Any
 
-from fw1394.cli.common import CliError, print_json_lines, print_table
-from fw1394.cli.fuzz import defect_arguments
+from fw1394.cli.common import CliError, print_json, print_table
+from fw1394.errors import Error
 from fw1394.node import description
 from fw1394.node.description import (
-    NodeDescriptionError,
     add_bus_options,
     add_defect_option,
     add_ethernet_options,
     add_member_options,
     add_node_options,
+    bus_config,
+    faults,
     member_arguments,
+    timing,
 )
-from fw1394.transport.faults import FaultConfig
 from fw1394.transport.sansio.config import BusConfig
-from fw1394.transport.sansio.membership import Timing
 from fw1394.transport.sansio.wire import MAX_MEMBERS, MemberInfo
 from fw1394.transport.supervision.procs import pid_namespace
 
-if TYPE_CHECKING:
-    from fw1394.host.bus_port import BusPort
-
-T = TypeVar("T")
-__all__ = ["add_bus_options", "add_member_options", "bus_config", "host_port", "register"]
+__all__ = ["register", "standalone"]
 
 
 BUS_EXAMPLES = """\
@@ -56,44 +52,6 @@ examples:
 """
 
 
-# -- options shared by every bus member (fw1394.node.description) --------------------------
-def bus_config(args: argparse.Namespace) -> BusConfig:
-    return _checked(description.bus_config, args)
-
-
-def timing(args: argparse.Namespace) -> Timing:
-    return _checked(description.timing, args)
-
-
-def faults(args: argparse.Namespace) -> FaultConfig:
-    return _checked(description.faults, args)
-
-
-def _checked(make: Callable[[argparse.Namespace], T], args: argparse.Namespace) -> T:
-    try:
-        return make(args)
-    except NodeDescriptionError as error:
-        raise CliError(str(error)) from None
-
-
-def host_port(args: argparse.Namespace) -> BusPort:
-    """A host port on the bus the options name, waiting ``--timeout`` per transaction."""
-    from fw1394.host.bus_port import BusPort
-    from fw1394.transport.supervision.bus_key import BusKeyError
-
-    config = bus_config(args)
-    try:
-        return BusPort(
-            config,
-            ack_timeout=args.timeout,
-            split_timeout=args.timeout,
-            timing=timing(args),
-            faults=faults(args),
-        )
-    except (OSError, BusKeyError) as error:
-        raise CliError(f"cannot join bus {config.name!r}: {error}") from None
-
-
 def member_rows(members: Sequence[MemberInfo]) -> list[dict[str, Any]]:
     return [
         {
@@ -109,7 +67,7 @@ def member_rows(members: Sequence[MemberInfo]) -> list[dict[str, Any]]:
 
 def print_members(rows: list[dict[str, Any]], as_json: bool) -> None:
     if as_json:
-        print_json_lines(rows)
+        print_json(*rows)
         return
     counted = any("dropped" in row for row in rows)
     heading: tuple[str, ...] = ("PHY", "ROLE", "KIND", "GEN", "BOARD", "PID", "ADDRESS")
@@ -201,17 +159,7 @@ def _bus_handler(action: str) -> Any:
         "down": bus_down,
         "key": bus_key,
     }
-    handler = handlers[action]
-
-    def checked(args: argparse.Namespace) -> int:
-        from fw1394.transport.supervision.runtime import RuntimeRootError
-
-        try:
-            return handler(args)
-        except RuntimeRootError as error:  # someone else's runtime root: one line
-            raise CliError(str(error)) from None
-
-    return checked
+    return handlers[action]
 
 
 # -- handlers -----------------------------------------------------------------------------
@@ -230,15 +178,13 @@ def bus_up(args: argparse.Namespace) -> int:
         )
     node_arguments = (*member_arguments(args),)
     ethernet: set[tuple[str, ...]] = set()
-    try:
-        for kind in args.board.split(","):  # every node's options, before any process starts
-            description.check_board(kind)
-            description.checked_defects(kind, args.defect)
-            ethernet.add(description.ethernet_arguments(kind, args))
-    except NodeDescriptionError as error:
-        raise CliError(str(error)) from None
+    for kind in args.board.split(","):  # every node's options, before any process starts
+        description.check_board(kind)
+        description.checked_defects(kind, args.defect)
+        ethernet.add(description.ethernet_arguments(kind, args))
     node_arguments += max(ethernet, key=len)  # kinds without an Ethernet side ignore them
-    node_arguments += defect_arguments(args)  # planted bugs for the fuzzer
+    # planted bugs for the fuzzer, handed on to each node process
+    node_arguments += tuple(part for name in args.defect for part in ("--defect", name))
     if args.nodes < MAX_MEMBERS:  # the bus's shared host node (transport.host_adapter)
         node_arguments += ("--adapter",)
     timing(args)
@@ -261,11 +207,11 @@ def bus_up(args: argparse.Namespace) -> int:
         view = bus.wait_members(timeout=args.timeout)
         if args.nodes < MAX_MEMBERS:
             view = wait_adapter(config, bus.directory, args.timeout) or view
-    except AlreadyUpError as error:
-        raise CliError(str(error)) from None  # the running bus is not ours to stop
+    except AlreadyUpError:
+        raise  # the running bus is not ours to stop
     except LaunchError as error:
         bus.stop()
-        raise CliError(f"{error} (log: {log})") from None
+        raise LaunchError(f"{error} (log: {log})") from None
     except KeyboardInterrupt:
         bus.stop()
         raise
@@ -274,13 +220,10 @@ def bus_up(args: argparse.Namespace) -> int:
 
 
 def bus_key_of(config: BusConfig) -> bytes | None:
-    """The key members of ``config``'s bus use here; a bad key file is a CLI error."""
-    from fw1394.transport.supervision.bus_key import BusKeyError, key_for
+    """The key members of ``config``'s bus use here."""
+    from fw1394.transport.supervision.bus_key import key_for
 
-    try:
-        return key_for(config)
-    except (BusKeyError, OSError) as error:
-        raise CliError(str(error)) from None
+    return key_for(config)
 
 
 def labelled_rows(config: BusConfig, view: Any) -> list[dict[str, Any]]:
@@ -322,7 +265,7 @@ def bus_status(args: argparse.Namespace) -> int:
     security = "keyed" if keyed else "insecure"
     if args.json:
         # One line per member, as ever; the bus's security rides on every line.
-        print_json_lines([{**row, "security": security} for row in rows])
+        print_json(*({**row, "security": security} for row in rows))
     else:
         dropped = sum(row["dropped"] or 0 for row in rows)
         replayed = sum(row["replayed"] or 0 for row in rows)
@@ -351,7 +294,7 @@ NO_KEY_HERE = "keyed (no key here)"
 def _status_without_key(name: str, generation: int, as_json: bool) -> int:
     # Members only from beacons whose MAC verified: without the key, none did.
     if as_json:
-        print_json_lines([{"generation": generation, "security": NO_KEY_HERE, "members": None}])
+        print_json({"generation": generation, "security": NO_KEY_HERE, "members": None})
     else:
         print(
             f"bus {name!r}: generation {generation}, {NO_KEY_HERE}: members not shown, "
@@ -434,20 +377,16 @@ def bus_key(args: argparse.Namespace) -> int:
     if key is None:
         raise CliError(f"bus {config.name!r} has no key here (not up, or up with --insecure)")
     if args.json:
-        print_json_lines([{"bus": config.name, "key": key.hex()}])
+        print_json({"bus": config.name, "key": key.hex()})
     else:
         print(key.hex())
     return 0
 
 
 def node_run(args: argparse.Namespace) -> int:
-    from fw1394.node.run import NodeStartError, run
+    from fw1394.node.run import run
 
-    node = _checked(description.description_from_arguments, args)
-    try:
-        run(node)
-    except NodeStartError as error:
-        raise CliError(str(error)) from None
+    run(description.description_from_arguments(args))
     return 0
 
 
@@ -460,8 +399,8 @@ def standalone(argv: Sequence[str]) -> int:
     args = parser.parse_args(argv)
     try:
         status: int = args.handler(args)
-    except CliError as error:
-        return fail(str(error))
+    except Error as error:
+        return fail(" ".join(str(error).split()) or type(error).__name__)
     return status
 
 

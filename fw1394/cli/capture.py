@@ -144,8 +144,6 @@ def run(args: argparse.Namespace) -> int:
             assert source is not None
             with source:
                 count = live.capture_records(source, writer, limits, show, _clock(args))
-    except live.CaptureError as error:
-        raise CliError(str(error)) from None
     except BrokenPipeError:
         # The reader went away (| head, dissect -c): stop quietly, as tshark does.
         _silence_stdout()
@@ -209,12 +207,10 @@ def _silence_stdout() -> None:
 
 def _open_tap(bus: str) -> BusTap:
     """A tap on ``bus``, once its coordinator has been heard (no bus: a one-line error)."""
-    try:
-        from fw1394.capture.formats.bus_tap import BusTap
-        from fw1394.transport.supervision.observe import watch
-        from fw1394.transport.supervision.runtime import bus_dir, supervisor_alive
-    except ImportError as error:
-        raise CliError(f"virtual bus capture is not available: {error}") from None
+    from fw1394.capture.formats.bus_tap import BusTap
+    from fw1394.transport.supervision.observe import watch
+    from fw1394.transport.supervision.runtime import bus_dir, supervisor_alive
+
     try:
         tap = BusTap(bus)
     except (OSError, ValueError) as error:

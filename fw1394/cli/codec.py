@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import sys
 from collections.abc import Iterator
 from enum import IntEnum
 from typing import Any
 
-from fw1394.cli.common import CliError, hex_bytes, integer, print_table
+from fw1394.cli.common import CliError, integer, print_json, print_table
+from fw1394.errors import Error
 from fw1394.packets import (
     ASYNC_CLASSES,
     PHY_CLASSES,
@@ -18,7 +18,6 @@ from fw1394.packets import (
     AckCode,
     ExtendedTCode,
     Packet,
-    PacketError,
     PhyPacket,
     PortStatus,
     RCode,
@@ -30,7 +29,7 @@ from fw1394.packets import (
     summary,
     to_json,
 )
-from fw1394.packets.hextext import quadlets_hex
+from fw1394.packets.hextext import HexTextError, hex_bytes, quadlets_hex
 
 DECODE_EPILOG = """\
 input: one packet as hex arguments, or one packet per line on standard input.
@@ -322,7 +321,7 @@ def _add_field_options(parser: argparse.ArgumentParser, cls: type[Any]) -> None:
 def hex_bytes_argument(text: str) -> bytes:
     try:
         return hex_bytes(text)
-    except CliError as error:
+    except HexTextError as error:
         raise argparse.ArgumentTypeError(str(error)) from None
 
 
@@ -341,7 +340,7 @@ def run_encode(args: argparse.Namespace) -> int:
     text = raw.hex() if isinstance(packet, Ack) else quadlets_hex(raw)
     if args.json:
         decoded = decode(raw, crc=not args.no_crc, strict=False, kind=_kind(packet))
-        print(json.dumps({"hex": text, **to_json(decoded)}))
+        print_json({"hex": text, **to_json(decoded)})
     else:
         print(text)
     return 0
@@ -378,7 +377,7 @@ def run_decode(args: argparse.Namespace) -> int:
                 _print_packet(
                     decode(raw, crc=not args.no_crc, strict=not args.lenient, kind=args.kind), args
                 )
-        except (CliError, PacketError) as error:
+        except Error as error:  # this line's packet: report it, go on with the next
             print(f"fw1394: error: {where}: {error}", file=sys.stderr)
             status = 2
     if not given:
@@ -394,7 +393,7 @@ def _print_packet(
     packet: Packet, args: argparse.Namespace, extra: dict[str, Any] | None = None
 ) -> None:
     if args.json:
-        print(json.dumps({**(extra or {}), **to_json(packet)}))
+        print_json({**(extra or {}), **to_json(packet)})
         return
     print(summary(packet))
     if not args.quiet:
@@ -409,14 +408,11 @@ def _split_eth1394(payload: bytes) -> tuple[dict[str, Any], bytes]:
     """
     from fw1394.packets import eth1394
 
-    try:
-        if len(payload) % 4 == 2:
-            request = eth1394.parse_request(payload)
-            framing = {"direction": "request", **dataclasses.asdict(request.control)}
-            return framing, request.packet
-        response = eth1394.parse_response(payload)
-    except eth1394.Eth1394Error as error:
-        raise CliError(f"Eth1394 framing: {error}") from None
+    if len(payload) % 4 == 2:
+        request = eth1394.parse_request(payload)
+        framing = {"direction": "request", **dataclasses.asdict(request.control)}
+        return framing, request.packet
+    response = eth1394.parse_response(payload)
     return {"direction": "response", **dataclasses.asdict(response.extra)}, response.packet
 
 
@@ -426,7 +422,10 @@ def _print_jhu(raw: bytes, args: argparse.Namespace) -> None:
         raise CliError("Eth1394 request has a control word but no 1394 packet")
     if not packet_bytes:
         # The FPGA's 8-byte "read dropped" notice: framing only.
-        print(json.dumps({"eth1394": framing}) if args.json else _framing_line(framing))
+        if args.json:
+            print_json({"eth1394": framing})
+        else:
+            print(_framing_line(framing))
         return
     # The FPGA's Ethernet path sends zero CRCs and the host never checks them, so
     # responses are decoded leniently: their CRC state is shown, not enforced.

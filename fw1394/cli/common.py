@@ -12,7 +12,6 @@ from contextlib import contextmanager
 from typing import Any
 
 from fw1394.errors import UsageError
-from fw1394.packets import hextext
 
 
 class CliError(UsageError):
@@ -74,15 +73,12 @@ def integer(text: str) -> int:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number (use 123 or 0x7b)") from None
 
 
-def hex_bytes(text: str) -> bytes:
-    """:func:`fw1394.packets.hextext.hex_bytes`, its error as a one-line :class:`CliError`."""
-    try:
-        return hextext.hex_bytes(text)
-    except hextext.HexTextError as error:
-        raise CliError(str(error)) from None
+def print_json(*objects: Any) -> None:
+    """Each object as one line of compact JSON on standard output (JSON Lines).
 
-
-def print_json_lines(objects: Iterable[dict[str, Any]]) -> None:
+    Every ``--json`` of the command line prints through here, so every one
+    writes the same text for the same object: ``json.dumps``'s default
+    separators, non-ASCII escaped, one ``\\n`` after each object."""
     for obj in objects:
         print(json.dumps(obj))
 

@@ -16,13 +16,12 @@ reset); a GUID is read from each node's configuration ROM.
 from __future__ import annotations
 
 import argparse
-import json
 from typing import Any
 
-from fw1394.cli.attach import add_attach_options, host_member, open_port, port_errors
-from fw1394.cli.bus import add_bus_options, add_member_options, bus_config
-from fw1394.cli.common import CliError, fail, integer
+from fw1394.cli.attach import add_attach_options, host_member, open_port
+from fw1394.cli.common import CliError, fail, integer, print_json
 from fw1394.errors import Error
+from fw1394.node.description import add_bus_options, add_member_options, bus_config
 from fw1394.packets import ExtendedTCode, RCode, name_of
 from fw1394.packets.hextext import quadlets_hex
 from fw1394.packets.nodeid import BROADCAST_PHY
@@ -43,6 +42,7 @@ EXAMPLES = {
     "read": (
         "examples:\n  fw1394 read 0 0x0\n  fw1394 read 1 0x100 --length 2048 --json\n"
         "  fw1394 read --board-id 1 0x0          (the board whose board ID is 1)\n"
+        "  fw1394 read --guid 0x02f139a1b2000101 0xfffff0000410   (GUIDs: fw1394 lsnodes)\n"
     ),
     "write": (
         "examples:\n  fw1394 write 0 0x8 0x12345678\n  fw1394 write 2 0x100 1 2 3 4\n"
@@ -81,8 +81,8 @@ def _parser(
     if by_board:
         description += (
             " Address the node by physical ID (NODE, as 1394 does: valid until the next "
-            "bus reset) or by the board ID it announces (--board-id, looked up again "
-            "after every reset)."
+            "bus reset), by the board ID it announces (--board-id) or by the GUID in its "
+            "configuration ROM (--guid), both looked up again after every reset."
         )
     parser: argparse.ArgumentParser = subparsers.add_parser(
         name,
@@ -97,7 +97,7 @@ def _parser(
             type=integer,
             nargs="?",
             metavar="NODE",
-            help="physical ID (0-62); left out with --board-id",
+            help="physical ID (0-62); left out with --board-id or --guid",
         )
         by = parser.add_mutually_exclusive_group()
         by.add_argument(
@@ -174,11 +174,10 @@ def _transact(args: argparse.Namespace, what: str, action: Any) -> Any:
     ID, a reset before it went out means looking the board up again; by physical
     ID it is the caller's to decide, so the command fails with ``bus_reset``.
     """
-    from fw1394.host.addressing import BoardNotOnBusError, BoardPort, GuidPort
+    from fw1394.host.addressing import BoardPort, GuidPort
     from fw1394.transport.bus_host import StaleGenerationError, TransactionError
 
     config = bus_config(args)
-    reaching: tuple[type[Exception], ...] = (*port_errors(), ValueError, BoardNotOnBusError)
     with open_port(args) as port:
         boards = GuidPort(port) if args.guid is not None else BoardPort(port)
         nodes: dict[int, Any] = {}
@@ -197,7 +196,7 @@ def _transact(args: argparse.Namespace, what: str, action: Any) -> Any:
                 except StaleGenerationError:
                     if _key(args) is None or attempt == _ATTEMPTS - 1:
                         raise
-        except reaching as error:  # ValueError: a block too long for this bus
+        except ValueError as error:  # the bus host's plain ValueError: a block too long
             raise CliError(str(error)) from None
         except TransactionError as error:
             failure = {"reason": str(error.reason)}
@@ -273,7 +272,7 @@ def _failed(args: argparse.Namespace, error: _Failed) -> int:
     # Scripts asking for JSON get the failure as JSON on stdout too, not only the
     # line on stderr: {"node": 0, "offset": 3, "error": {"reason": ..., "rcode": ...}}.
     if args.json:
-        print(json.dumps({**_where(args), "offset": args.offset, "error": error.failure}))
+        print_json({**_where(args), "offset": args.offset, "error": error.failure})
     return fail(str(error), 1)
 
 
@@ -289,7 +288,10 @@ def _where(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _report(args: argparse.Namespace, result: dict[str, Any], text: str) -> None:
-    print(json.dumps(result) if args.json else text)
+    if args.json:
+        print_json(result)
+    else:
+        print(text)
 
 
 def run_read(args: argparse.Namespace) -> int:

@@ -5,6 +5,10 @@ board kind, board ID and, read from its configuration ROM (CSR offset 0x400)
 through the bus's adapter, its GUID (EUI-64), vendor and model. A board
 without a ROM (the thesis board reads 0 there, plain memory has no CSR
 space) is listed as having none.
+
+With ``--json`` the GUID is a string of 16 hex digits after ``0x``
+(``"0x00fa610e00000003"``), as tools print EUI-64s: a JSON number above 2**53
+loses digits in most readers, JavaScript's and jq's among them.
 """
 
 from __future__ import annotations
@@ -13,14 +17,18 @@ import argparse
 from collections.abc import Sequence
 from typing import Any
 
-from fw1394.cli.attach import add_attach_options, host_member, open_port, port_errors
-from fw1394.cli.bus import add_bus_options, add_member_options
-from fw1394.cli.common import CliError, print_json_lines, print_table
+from fw1394.cli.attach import add_attach_options, host_member, open_port
+from fw1394.cli.common import CliError, print_json, print_table
+from fw1394.node.description import add_bus_options, add_member_options
 
 EPILOG = """\
 examples:
   fw1394 lsnodes                       every node of bus "default"
   fw1394 lsnodes --name arm --json     one JSON object per node
+
+In --json, "guid" is a string of 16 hex digits after 0x ("0x00fa610e00000003"):
+a 64-bit number does not survive JSON readers that use doubles; "rom" is false
+(and "guid" absent) for a node without a configuration ROM.
 """
 #: Quadlets of one ROM read at most (1 KiB of ROM space).
 _ROM_QUADLETS = 256
@@ -36,7 +44,11 @@ def register(subparsers: Any) -> None:
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("--json", action="store_true", help="one JSON object per node")
+    parser.add_argument(
+        "--json",
+        action="store_true",
+        help='one JSON object per node ("guid": "0x" and 16 hex digits)',
+    )
     parser.add_argument(
         "--timeout", type=float, default=0.5, help="ack and response timeout (s) of --own-member"
     )
@@ -79,6 +91,11 @@ def read_rom(port: Any, node: int, generation: int) -> dict[int, int] | None:
     return quadlets
 
 
+def guid_text(eui64: int) -> str:
+    """A GUID as JSON carries it: ``0x`` and 16 hex digits, leading zeros kept."""
+    return f"0x{eui64:016x}"
+
+
 def describe_rom(quadlets: dict[int, int] | None) -> dict[str, Any]:
     """GUID, vendor and model of a ROM (the text leaves after Vendor and Model)."""
     from fw1394.capture.analysis.rom_decode import decode_rom
@@ -86,7 +103,8 @@ def describe_rom(quadlets: dict[int, int] | None) -> dict[str, Any]:
     if quadlets is None:
         return {"rom": False}
     report = decode_rom(quadlets)
-    found: dict[str, Any] = {"rom": True, "guid": report.eui64}
+    guid = None if report.eui64 is None else guid_text(report.eui64)
+    found: dict[str, Any] = {"rom": True, "guid": guid}
     texts = {block.address: block.text for block in report.blocks if block.text is not None}
     root = next((b for b in report.blocks if b.kind == "root_directory"), None)
     previous = None
@@ -104,34 +122,31 @@ def run(args: argparse.Namespace) -> int:
     from fw1394.packets.nodeid import node_id
 
     with open_port(args) as port:
-        try:
-            me = host_member(port)
-            nodes = port.nodes()
-            generation = port.generation
-            if not nodes:
-                raise CliError(f"bus {args.name!r} has no nodes (fw1394 bus up --nodes N)")
-            kinds = member_kinds(args.name, me, [m for _, m in nodes])
-            rows = []
-            for (phy, member), kind in zip(nodes, kinds, strict=True):
-                row: dict[str, Any] = {
-                    "phy_id": phy,
-                    "node_id": node_id(phy),
-                    "generation": generation,
-                    "role": "host" if member.host else "node",
-                    "kind": kind,
-                    "board_id": None if member.board_id == 0xFF else member.board_id,
-                    "pid": member.pid,
-                }
-                row.update(describe_rom(read_rom(port, phy, generation)))
-                rows.append(row)
-        except port_errors() as error:
-            raise CliError(str(error)) from None
+        me = host_member(port)
+        nodes = port.nodes()
+        generation = port.generation
+        if not nodes:
+            raise CliError(f"bus {args.name!r} has no nodes (fw1394 bus up --nodes N)")
+        kinds = member_kinds(args.name, me, [m for _, m in nodes])
+        rows = []
+        for (phy, member), kind in zip(nodes, kinds, strict=True):
+            row: dict[str, Any] = {
+                "phy_id": phy,
+                "node_id": node_id(phy),
+                "generation": generation,
+                "role": "host" if member.host else "node",
+                "kind": kind,
+                "board_id": None if member.board_id == 0xFF else member.board_id,
+                "pid": member.pid,
+            }
+            row.update(describe_rom(read_rom(port, phy, generation)))
+            rows.append(row)
     if args.json:
-        print_json_lines(rows)
+        print_json(*rows)
         return 0
     table = [("PHY", "NODE", "GEN", "KIND", "BOARD", "GUID", "VENDOR", "MODEL")]
     for row in rows:
-        guid = f"{row['guid']:016x}" if row.get("guid") is not None else "-"
+        guid = row["guid"][2:] if row.get("guid") is not None else "-"
         if not row["rom"]:
             guid, vendor, model = NO_ROM, "", ""
         else:

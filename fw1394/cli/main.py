@@ -4,7 +4,10 @@ Every module in :mod:`fw1394.cli` that defines ``register(subparsers)`` adds its
 subcommands; a subcommand's handler takes the parsed namespace and returns an
 exit status. Every error the library raises on purpose derives from
 :class:`fw1394.Error`; :func:`main` prints any of them as one line on stderr and
-exits with status 2, here and nowhere else, so commands let them propagate.
+exits with status 2, here and nowhere else, so commands let them propagate;
+an :class:`OSError` that reaches it (a file, a socket, a permission) is one
+line and status 2 as well. :class:`~fw1394.cli.common.CliError` remains for
+what only the command line can get wrong (options that do not go together).
 """
 
 from __future__ import annotations
@@ -102,7 +105,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:
         # Output piped into `head` and closed: not an error worth a traceback.
         return 0
+    except OSError as error:
+        # The environment said no (a file, a socket, a permission): the user can act on it.
+        return fail(os_error_line(error))
     return status
+
+
+def os_error_line(error: OSError) -> str:
+    """``PATH: reason`` as the shell's own tools say it, or the reason alone."""
+    reason = error.strerror or str(error) or type(error).__name__
+    if error.filename is not None:
+        return f"{error.filename}: {reason}"
+    return " ".join(reason.split())
 
 
 if __name__ == "__main__":

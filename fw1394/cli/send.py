@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 from typing import Any
 
-from fw1394.cli.attach import add_attach_options, open_port, port_errors
-from fw1394.cli.bus import add_bus_options, add_member_options
-from fw1394.cli.common import CliError, fail, hex_bytes, integer, print_table
+from fw1394.cli.attach import add_attach_options, open_port
+from fw1394.cli.common import CliError, fail, integer, print_json, print_table
+from fw1394.node.description import add_bus_options, add_member_options
+from fw1394.packets.hextext import hex_bytes
 
 EPILOG = """\
 examples:
@@ -158,8 +158,6 @@ def run(args: argparse.Namespace) -> int:
             # Pinned to the generation of the member table just read: a packet meant
             # for this physical ID never reaches whoever holds it after a reset.
             reply = port.send_packet(destination, packet, args.wait, generation=port.generation)
-        except port_errors() as error:
-            raise CliError(str(error)) from None
         except StaleGenerationError as error:
             return fail(f"send to node {destination}: the bus reset first ({error})", 1)
     sent, response = decoded(packet), decoded(reply.data) if reply.data else None
@@ -176,7 +174,7 @@ def run(args: argparse.Namespace) -> int:
         crc_ok = sent.get("fields", {}).get("header_crc_ok", True)
         result["silence"] = _silence(port_kind(args, destination), packet, crc_ok)
     if args.json:
-        print(json.dumps(result))
+        print_json(result)
         return 0
     print(f"sent to node {destination}: {sent['summary']}")
     print(f"ack:      {result['ack'] or 'none (silence)'}")

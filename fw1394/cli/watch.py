@@ -3,15 +3,14 @@
 from __future__ import annotations
 
 import argparse
-import json
 import shutil
 import sys
 import time
 from typing import TYPE_CHECKING, Any
 
-from fw1394.cli.attach import add_attach_options, host_member, open_port, port_errors
-from fw1394.cli.bus import add_bus_options, add_member_options
-from fw1394.cli.common import CliError, integer
+from fw1394.cli.attach import add_attach_options, host_member, open_port
+from fw1394.cli.common import CliError, integer, print_json
+from fw1394.node.description import add_bus_options, add_member_options
 
 if TYPE_CHECKING:
     from fw1394.host.adapter_port import AdapterPort
@@ -114,13 +113,10 @@ def _check(args: argparse.Namespace) -> None:
 def run(args: argparse.Namespace) -> int:
     _check(args)
     with open_port(args) as port:
-        try:
-            boards = _attach(port, args)
-            if args.once:
-                return _snapshot(boards, args)
-            return _live(boards, args)
-        except port_errors() as error:
-            raise CliError(str(error)) from None
+        boards = _attach(port, args)
+        if args.once:
+            return _snapshot(boards, args)
+        return _live(boards, args)
 
 
 def _attach(port: AdapterPort | BusPort, args: argparse.Namespace) -> list[WatchedBoard]:
@@ -163,7 +159,7 @@ def _snapshot(boards: list[WatchedBoard], args: argparse.Namespace) -> int:
     readings = [_read_once(watched, args.read_only) for watched in boards]
     if args.json:
         objects = [reading_dict(reading, conversions) for reading in readings]
-        print(json.dumps({"bus": args.name, "time": time.time(), "boards": objects}))
+        print_json({"bus": args.name, "time": time.time(), "boards": objects})
         return 0
     title = f"fw1394 watch  bus {args.name}  {time.strftime('%Y-%m-%d %H:%M:%S')}"
     panels = [BoardPanel(r.node, r.kind, r) for r in readings]

@@ -9,6 +9,7 @@ the board registry, the 1394 codec.
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Iterator
 
 import pytest
@@ -59,14 +60,22 @@ def test_lsnodes_decodes_the_rom_where_there_is_one(bus: AdapterBus) -> None:
     rom = build_config_rom(board_id=QLA1, firmware=DEFAULT_FIRMWARE, has_ethernet=True)
     qla1 = rows[QLA1]
     assert qla1["rom"] is True
-    assert qla1["guid"] == rom[3] << 32 | rom[4]  # bus info block: node vendor/chip IDs
+    # Bus info block quadlets 3 and 4: node vendor ID and chip ID, as one hex string.
+    assert qla1["guid"] == f"0x{rom[3]:08x}{rom[4]:08x}"
+    assert re.fullmatch(r"0x[0-9a-f]{16}", qla1["guid"])
     assert qla1["vendor"] == "JHU LCSR" and qla1["vendor_id"] == 0xFA610E
     assert qla1["model"] == "FPGA2/QLA"
-    assert rows[MEMORY]["rom"] is False and rows[SNAKE]["rom"] is False
+    # The other boards carry the general ROM every emulated node has: vendor 0x02F139
+    # (locally administered), "fw1394", and a GUID of their own under that vendor.
+    others = [rows[MEMORY], rows[SNAKE]]
+    assert all(r["rom"] is True and r["vendor_id"] == 0x02F139 for r in others)
+    assert all(re.fullmatch(r"0x02f139[0-9a-f]{10}", r["guid"]) for r in others)
+    assert len({qla1["guid"], *(r["guid"] for r in others)}) == 3
     assert [rows[p]["kind"] for p in (QLA1, MEMORY, SNAKE)] == ["qla1", "memory", "snake2010"]
     text = bus.fw1394("lsnodes").stdout
     assert "JHU LCSR" in text and "FPGA2/QLA" in text
-    assert text.count("no configuration ROM") == 2
+    assert all(r["guid"][2:] in text for r in rows.values())  # the table: 16 digits, no 0x
+    assert "no configuration ROM" not in text
 
 
 @pytest.mark.process
