@@ -229,7 +229,10 @@ def rtl_rates(cases: int) -> None:
 
 def cluster_speedup(cases: int) -> None:
     """rtl:thesis on a 2-worker Dask LocalCluster against one worker, interleaved rounds,
-    timed from submission to merged report (cluster start-up excluded)."""
+    timed from submission to merged report (cluster start-up excluded). From the second
+    round on, both start on the simulation the last round parked (as a long-lived
+    worker does); what two bare processes get done against one right now is printed
+    beside each round (the ceiling of any speed-up on a shared machine)."""
     from distributed import LocalCluster
 
     from fw1394.fuzz import cluster, workers
@@ -248,6 +251,11 @@ def cluster_speedup(cases: int) -> None:
             start = time.perf_counter()
             cluster.run(settings, local.scheduler_address)
             two.append(cases / (time.perf_counter() - start))
+            print(
+                f"  round {seed + 1}: 1 worker {one[-1]:.1f} cases/s, 2 workers "
+                f"{two[-1]:.1f} cases/s, {two[-1] / one[-1]:.2f}x; bare loop 2 vs 1 process "
+                f"{machine_parallelism():.2f} (load average {os.getloadavg()[0]:.1f})"
+            )
     alone, spread = sorted(one)[1], sorted(two)[1]
     print(
         f"rtl:thesis, {cases} cases a round: 1 worker {alone:.1f} cases/s, 2 Dask workers "

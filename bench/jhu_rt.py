@@ -49,6 +49,7 @@ RUN = textwrap.dedent(
     import fw1394
     if not fw1394.__file__.startswith(root):
         sys.exit(f"fw1394 comes from {fw1394.__file__}, not from {root}")
+    from fw1394.transport.supervision.stop import stop
     if port == "1394":  # a namespace of its own: loopback starts down
         subprocess.run(["ip", "link", "set", "lo", "up"], check=True)
     if firmware == "9":

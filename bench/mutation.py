@@ -106,6 +106,7 @@ class ModuleScore:
     annotations: int = 0  # of those, mutants of a never-evaluated annotation (equivalent)
     sampled: int = 0
     uncovered: int = 0  # survivors on a line no planned test executes (not run)
+    timeouts: int = 0  # of the killed, those killed by running out of time
     selected_runs: int = 0  # mutants tested with only the tests that execute their line
     seconds: float = 0.0
     survivors: list[dict[str, object]] = field(default_factory=list)
@@ -216,7 +217,7 @@ _COVER = """
 import importlib, sys, coverage, pytest
 data_file, files, modules, *args = sys.argv[1:]
 cov = coverage.Coverage(data_file=data_file, include=files.split(","), branch=False)
-failed = set()
+failed, durations = set(), {}
 class Contexts:
     @pytest.hookimpl(hookwrapper=True)
     def pytest_runtest_protocol(self, item, nextitem):
@@ -224,6 +225,7 @@ class Contexts:
         yield
         cov.switch_context("")
     def pytest_runtest_logreport(self, report):
+        durations[report.nodeid] = durations.get(report.nodeid, 0.0) + report.duration
         if report.failed:
             failed.add(report.nodeid)
 cov.start()
@@ -236,15 +238,17 @@ status = pytest.main(args, plugins=[Contexts()])
 cov.stop()
 cov.save()
 open(data_file + ".failed", "w").write("".join(f"{n}\\n" for n in sorted(failed)))
+open(data_file + ".durations", "w").write(repr(durations))
 sys.exit(0 if status in (0, 1) else int(status))
 """
 
 
 def tests_by_line(
     modules: list[str], tests: tuple[str, ...], scratch: Path
-) -> tuple[dict[str, dict[int, set[str]]], list[str]]:
+) -> tuple[dict[str, dict[int, set[str]]], list[str], dict[str, float]]:
     """Module -> line -> the planned tests (node IDs, "" for import time) that execute it;
-    and the planned tests that fail without any mutant (left out of every run)."""
+    the planned tests that fail without any mutant (left out of every run); and the
+    seconds each test function took under coverage."""
     data_file = scratch / "coverage"
     files = [str(ROOT / m) for m in modules]
     names = [m.removesuffix(".py").removesuffix("/__init__").replace("/", ".") for m in modules]
@@ -274,7 +278,15 @@ def tests_by_line(
             line: set(contexts) - set(failing)
             for line, contexts in data.contexts_by_lineno(measured).items()
         }
-    return by_module, failing
+    seconds: dict[str, float] = {}
+    for test, spent in ast.literal_eval(Path(f"{data_file}.durations").read_text()).items():
+        seconds[_function(test)] = seconds.get(_function(test), 0.0) + spent
+    return by_module, failing, seconds
+
+
+def _function(node_id: str) -> str:
+    """The test function of a node ID (parametrized cases run together)."""
+    return re.sub(r"\[.*\]$", "", node_id)
 
 
 def choose_tests(
@@ -293,7 +305,7 @@ def choose_tests(
         contexts |= lines.get(line, set())
     if "" in contexts:
         return None
-    return sorted({re.sub(r"\[.*\]$", "", context) for context in contexts})
+    return sorted({_function(context) for context in contexts})
 
 
 def enumerate_mutants(modules: list[str], tests: tuple[str, ...], scratch: Path) -> list[WorkItem]:
@@ -330,7 +342,9 @@ def run_forked(tests: list[str] | tuple[str, ...], timeout: float) -> str:
             os.dup2(quiet, 2)
             import pytest
 
-            status = int(pytest.main([*PYTEST_ARGS, *tests]))
+            # The run's own limit rules, not the suite's per-test timeout.
+            limit = ["-o", f"timeout={int(timeout) + 1}"]
+            status = int(pytest.main([*PYTEST_ARGS, *limit, *tests]))
         finally:
             os._exit(status)
     stop = time.monotonic() + timeout
@@ -346,10 +360,8 @@ def run_forked(tests: list[str] | tuple[str, ...], timeout: float) -> str:
         time.sleep(0.02)
 
 
-def test_mutant(
-    item: WorkItem, runs: list[list[str] | tuple[str, ...]], timeout: float
-) -> tuple[str, str]:
-    """Apply the mutant, run each test list until one fails; (outcome, diff).
+def test_mutant(item: WorkItem, runs: list[tuple[list[str], float]]) -> tuple[str, str]:
+    """Apply the mutant, run each (tests, time limit) until one fails; (outcome, diff).
 
     Bytecode is cached (under ``sys.pycache_prefix``) for speed, except the mutated
     module's: a mutant and its original can share a size and an mtime second.
@@ -364,9 +376,9 @@ def test_mutant(
     with use_mutation(spec.module_path, operator, spec.occurrence) as (before, after):
         if after is None:
             return "incompetent", ""
-        for tests in runs:
+        for tests, limit in runs:
             compiled.unlink(missing_ok=True)
-            outcome = run_forked(tests, timeout)
+            outcome = run_forked(tests, limit)
             if outcome != "survived":
                 break
     compiled.unlink(missing_ok=True)
@@ -402,9 +414,13 @@ def score_entry(
         result.annotations = result.mutants - len(items)
         if 0 < sample < len(items):
             items = random.Random(seed).sample(items, sample)
-        lines, failing = tests_by_line(modules, tests, Path(scratch))
+        lines, failing, seconds = tests_by_line(modules, tests, Path(scratch))
     left_out = [f"--deselect={test}" for test in failing]
     everything = [*tests, *left_out]
+    # A mutant's run may take twice what its tests took under coverage (itself
+    # slower than a plain run), plus --timeout: on a loaded machine a fixed limit
+    # would count slow tests as kills.
+    whole = timeout + 2 * sum(seconds.values())
     for item in items:
         if deadline is not None and time.monotonic() > deadline:
             print(f"mutation: budget spent during {entry}", file=sys.stderr)
@@ -413,15 +429,17 @@ def score_entry(
         module = str(spec.module_path)
         chosen = choose_tests(spec, lines.get(module, {}), call_time[module])
         result.sampled += 1
+        runs: list[tuple[list[str], float]]
         if chosen == []:
             result.uncovered += 1  # no planned test executes the line: nothing to run
-            runs: list[list[str] | tuple[str, ...]] = []
+            runs = []
         elif chosen is None:
-            runs = [everything]
+            runs = [(everything, whole)]
         else:
             result.selected_runs += 1
-            runs = [[*chosen, *left_out]]
-        outcome, diff = test_mutant(item, runs, timeout)
+            limit = timeout + 2 * sum(seconds.get(test, 0.0) for test in chosen)
+            runs = [([*chosen, *left_out], limit)]
+        outcome, diff = test_mutant(item, runs)
         ran = "all planned tests" if chosen is None else f"{len(chosen)} tests"
         print(
             f"  {result.sampled}/{len(items)} {outcome:11} {module}:{spec.start_pos[0]}"
@@ -438,6 +456,7 @@ def score_entry(
             })  # fmt: skip
         else:
             result.killed += 1
+            result.timeouts += outcome == "timeout"
     result.seconds = time.monotonic() - started
     return result
 
@@ -447,7 +466,8 @@ def report(scores: list[ModuleScore]) -> str:
     for entry in scores:
         shown = "-" if entry.score is None else f"{entry.score:6.1%}"
         lines.append(
-            f"{entry.module:40} {shown:>7}  killed {entry.killed:4}  survived {entry.survived:4}"
+            f"{entry.module:40} {shown:>7}  killed {entry.killed:4} ({entry.timeouts} by timeout)"
+            f"  survived {entry.survived:4}"
             f" (no test runs the line: {entry.uncovered})  not run {entry.incompetent}"
             f"  | sampled {entry.sampled} of {entry.mutants - entry.annotations}"
             f" (+{entry.annotations} annotation mutants, equivalent)"
@@ -475,7 +495,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--changed", metavar="REV", help="only library files changed since REV")
     parser.add_argument("--sample", type=int, default=0, help="mutants per plan entry (0: all)")
     parser.add_argument("--seed", type=int, default=1394, help="seed of the sample")
-    parser.add_argument("--timeout", type=float, default=120.0, help="seconds per mutant's run")
+    parser.add_argument(
+        "--timeout", type=float, default=120.0,
+        help="seconds a mutant's run may take beyond twice its tests' time under coverage",
+    )  # fmt: skip
     parser.add_argument("--budget", type=float, default=0.0, help="stop after this many seconds")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     args = parser.parse_args(argv)

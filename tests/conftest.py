@@ -30,6 +30,30 @@ from fw1394.transport.sansio.config import BusConfig
 from fw1394.transport.supervision.launch import LaunchedBus
 
 
+def pytest_configure(config: pytest.Config) -> None:
+    # pytest-xdist hands tests out in big consecutive chunks, so a worker can be
+    # left with several long tests while the other has run dry. One at a time,
+    # as workers free up, and the long tests first (below), the run ends about
+    # when its longest test does, not later. An explicit --maxschedchunk wins.
+    if config.pluginmanager.hasplugin("xdist") and config.getoption("maxschedchunk") is None:
+        config.option.maxschedchunk = 1
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The ``slow`` tests first, then those that start processes, then the rest.
+
+    Tests that start processes take most of the run and mostly wait; the many
+    short in-process tests then fill the end. Each keeps its place in its group.
+    """
+
+    def group(item: pytest.Item) -> int:
+        if item.get_closest_marker("slow") is not None:
+            return 0
+        return 1 if item.get_closest_marker("process") is not None else 2
+
+    items.sort(key=group)
+
+
 @pytest.fixture
 def unique_bus_name(request: pytest.FixtureRequest) -> str:
     """A bus name no other test, and no other test run on this machine, uses."""

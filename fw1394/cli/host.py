@@ -42,6 +42,7 @@ EXAMPLES = {
     "read": (
         "examples:\n  fw1394 read 0 0x0\n  fw1394 read 1 0x100 --length 2048 --json\n"
         "  fw1394 read --board-id 1 0x0          (the board whose board ID is 1)\n"
+        "  fw1394 read --guid 0x02f139a1b2000101 0xfffff0000410   (GUIDs: fw1394 lsnodes)\n"
     ),
     "write": (
         "examples:\n  fw1394 write 0 0x8 0x12345678\n  fw1394 write 2 0x100 1 2 3 4\n"
@@ -80,8 +81,8 @@ def _parser(
     if by_board:
         description += (
             " Address the node by physical ID (NODE, as 1394 does: valid until the next "
-            "bus reset) or by the board ID it announces (--board-id, looked up again "
-            "after every reset)."
+            "bus reset), by the board ID it announces (--board-id) or by the GUID in its "
+            "configuration ROM (--guid), both looked up again after every reset."
         )
     parser: argparse.ArgumentParser = subparsers.add_parser(
         name,
@@ -96,7 +97,7 @@ def _parser(
             type=integer,
             nargs="?",
             metavar="NODE",
-            help="physical ID (0-62); left out with --board-id",
+            help="physical ID (0-62); left out with --board-id or --guid",
         )
         by = parser.add_mutually_exclusive_group()
         by.add_argument(

@@ -25,10 +25,11 @@ from fw1394.packets import (
     Request,
     Response,
 )
+from fw1394.packets.nodeid import BROADCAST_PHY, bus_of, phy_of
+from fw1394.packets.nodeid import node_id as make_node_id
 
 #: The largest asynchronous payload of 1394a (S400); longer blocks are illegal.
 MAX_BLOCK = 2048
-_BROADCAST_NODE = 63
 _SILENT: Final = Reply(None, None, False)
 _READS = (QuadletReadRequest, BlockReadRequest)
 _WRITES = (QuadletWriteRequest, BlockWriteRequest)
@@ -100,14 +101,14 @@ class DefectiveResponder(Responder):
     # -- the defects, in the order a packet meets them -----------------------------------
     def _before(self, packet: Request, damaged: bool) -> tuple[Request, bool]:
         defects = self.defects
-        node = packet.destination_id & 0x3F
-        ours = node == self.node_id & 0x3F
-        if isinstance(packet, BlockWriteRequest) and (ours or node == _BROADCAST_NODE):
+        node = phy_of(packet.destination_id)
+        ours = node == phy_of(self.node_id)
+        if isinstance(packet, BlockWriteRequest) and (ours or node == BROADCAST_PHY):
             self._block_write_defects(packet, damaged)
-        if "answers-other-node" in defects and not ours and node != _BROADCAST_NODE:
+        if "answers-other-node" in defects and not ours and node != BROADCAST_PHY:
             packet = self._readdressed(packet)
             ours = True
-        broadcast_read = node == _BROADCAST_NODE and isinstance(packet, _READS)
+        broadcast_read = node == BROADCAST_PHY and isinstance(packet, _READS)
         if "broadcast-read-answered" in defects and broadcast_read:
             packet = self._readdressed(packet)
             ours = True
@@ -150,7 +151,7 @@ class DefectiveResponder(Responder):
     def _readdressed(self, packet: Request) -> Request:
         # The node takes the packet as its own; the CRC it carried still covers the
         # old destination, which is also what a link that skips the compare sees.
-        address = (packet.destination_id & ~0x3F) | (self.node_id & 0x3F)
+        address = make_node_id(phy_of(self.node_id), bus_of(packet.destination_id))
         return replace(packet, destination_id=address, header_crc=None)
 
     def _write(self, packet: Request) -> None:

@@ -78,7 +78,7 @@ from fw1394.packets.codegen import compile_function
 from fw1394.packets.fast import block_crc, builder, data_block_source, decode_sound
 from fw1394.packets.frame import ACK_FRAME_SIZE
 from fw1394.packets.layouts import TCODE_BYTE, TCODE_SHIFT
-from fw1394.packets.nodeid import BROADCAST_PHY, node_id, phy_of
+from fw1394.packets.nodeid import BROADCAST_PHY, LOCAL_BASE, node_id, phy_of
 
 #: A waiting transaction's label is -1: its request carries 63 until it has one.
 _LABEL_MASK = 0x3F
@@ -111,7 +111,7 @@ class Requester:
 
     def __init__(
         self,
-        node_id: int = 0xFFC1,
+        node_id: int = LOCAL_BASE | 1,
         generation: int = 0,
         split_timeout: float = 0.100,
         ack_timeout: float = 0.050,

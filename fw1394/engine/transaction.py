@@ -18,18 +18,18 @@ from fw1394.packets import (
     Response,
     TCode,
 )
+from fw1394.packets.nodeid import LOCAL_BUS, bus_of, phy_of
 
 #: Where a transaction stands; QUEUED: not sent yet, waiting for a free label.
 AWAIT_ACK, AWAIT_RESPONSE, BUSY_WAIT, QUEUED = 0, 1, 2, 3
-_LOCAL_BUS = 0x3FF
 _RESPONSE_CLASS: dict[int, type[AsyncPacket]] = {
     request: ASYNC_CLASSES[TCode(response)] for request, response in RESPONSE_TCODES.items()
 }
 
 
 def same_node(a: int, b: int) -> bool:
-    """Whether two node IDs name the same node; bus 0x3FF means "the local bus"."""
-    return a == b or ((a ^ b) & 0x3F == 0 and (a >> 6 == _LOCAL_BUS or b >> 6 == _LOCAL_BUS))
+    """Whether two node IDs name the same node; bus LOCAL_BUS (0x3FF) means "the local bus"."""
+    return a == b or (phy_of(a) == phy_of(b) and (bus_of(a) == LOCAL_BUS or bus_of(b) == LOCAL_BUS))
 
 
 class Transaction:

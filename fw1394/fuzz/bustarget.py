@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import time
 
+from fw1394.fuzz.reference import RomIdentity
 from fw1394.fuzz.target import Observed, TargetCrash, TargetGone, Wire
 from fw1394.fuzz.tunnel import Replies
 from fw1394.fuzz.udptarget import TUNNEL_VISIBILITY
@@ -52,6 +53,7 @@ class BusTarget:
 
     def __init__(self, config: BusConfig, phy: int, timeout: float) -> None:
         self.description = f"bus:{config.name}/{phy}"
+        self.bus_name = config.name
         self.timeout = timeout
         self.phy = phy
         self.node_id = node_id(phy)
@@ -90,6 +92,10 @@ class BusTarget:
                 raise TargetGone(f"{self.description}: {what} within {_JOIN_TIMEOUT} s")
             self.link.turn()
             self.link.frames.clear()
+
+    def rom_identity(self) -> RomIdentity:
+        """What the node's configuration ROM is made from: its bus, board ID and rank."""
+        return RomIdentity(self.bus_name, self.member.board_id, self.member.rank)
 
     def exchange(self, batch: list[Wire], now: float) -> list[Observed]:
         link, frames = self.link, self.link.frames

@@ -17,10 +17,11 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import replace
+from typing import Any, Protocol
 
 from fw1394.fuzz import corpus
 from fw1394.fuzz.coverage import bin_name, length_class
-from fw1394.fuzz.findings import Finding, Store
+from fw1394.fuzz.findings import Finding
 from fw1394.fuzz.generate import Generator
 from fw1394.fuzz.judge import Violation
 from fw1394.fuzz.report import TIMELINE_EVERY, Report
@@ -53,6 +54,15 @@ SHRINK_SHARE = 0.2
 _REPORT_EVERY_S = 5.0
 
 
+class Sink(Protocol):
+    """Where a campaign keeps its findings and report as they come (a
+    :class:`~fw1394.fuzz.findings.Store`, or a worker's way to its parent)."""
+
+    def put(self, finding: Finding) -> object: ...
+
+    def report(self, data: dict[str, Any]) -> None: ...
+
+
 class Terminated(KeyboardInterrupt):
     """The process was asked to end (SIGTERM): stop, keep what was found as found."""
 
@@ -82,7 +92,7 @@ def run(
     *,
     restart: str | RestartHook | None = None,
     worker: int = 0,
-    store: Store | None = None,
+    store: Sink | None = None,
 ) -> Report:
     """Fuzz the target of ``settings`` until a limit; the report (findings shrunk).
 
@@ -130,7 +140,7 @@ def run(
 class _Live:
     """The report of a running campaign, and where it is kept up to date."""
 
-    def __init__(self, report: Report, store: Store | None, start: float) -> None:
+    def __init__(self, report: Report, store: Sink | None, start: float) -> None:
         self.report = report
         self.store = store
         self.start = start

@@ -21,14 +21,16 @@ and shapes the answer as that path does, before and after the board.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from enum import IntEnum
 
 from fw1394.boards import make_board
+from fw1394.boards.config_rom import with_config_rom
 from fw1394.boards.qla1.paths import Path
-from fw1394.boards.registry import board_defects
+from fw1394.boards.registry import BOARDS, board_defects
 from fw1394.engine import Reply, Responder, ResponderPolicy
 from fw1394.engine.space import AddressSpace
-from fw1394.packets import AsyncPacket, Request, Response
+from fw1394.packets import AckCode, AsyncPacket, QuadletReadResponse, Request, Response
 from fw1394.packets.nodeid import phy_of
 
 #: The twins' clocks: ``rate * now + shift + step * packets`` (monotonic, and apart
@@ -77,6 +79,25 @@ def board(kind: str | None, board_id: int, defects: frozenset[str] = frozenset()
     return make_board(kind, board_id=board_id, defects=board_defects(kind, defects))
 
 
+@dataclass(frozen=True)
+class RomIdentity:
+    """Who a node process on a bus is, which its configuration ROM says
+    (:func:`fw1394.boards.config_rom.with_config_rom`)."""
+
+    bus: str
+    board_id: int
+    rank: int | None
+
+    def dress(self, space: AddressSpace, kind: str | None) -> AddressSpace:
+        """``space`` as the node process serves it: a board without a ROM of its own
+        (no node program of its kind) is behind the generic ROM."""
+        if kind is None or BOARDS[kind].node_program is not None:
+            return space
+        return with_config_rom(
+            space, bus=self.bus, board_id=self.board_id, rank=self.rank, model=kind
+        )
+
+
 class Reference:
     """The expected replies of node ``node_id`` of board ``kind`` under ``policy``."""
 
@@ -89,19 +110,26 @@ class Reference:
         *,
         twin: bool = False,
         path: Path | None = None,
+        rom: RomIdentity | None = None,
     ) -> None:
         self.kind = kind
         self.path = path
         self.policy = policy if path is None else path.policy
         self.node_id = node_id
         self.board_id = board_id
-        self.model = Responder(node_id, board(kind, board_id), self.policy)
+
+        def fresh() -> AddressSpace:
+            space = board(kind, board_id)
+            return space if rom is None else rom.dress(space, kind)
+
+        self.model = Responder(node_id, fresh(), self.policy)
         self.twins = [
-            Responder(node_id, board(kind, board_id), self.policy)
-            for _ in (TWIN_CLOCKS if twin else ())
+            Responder(node_id, fresh(), self.policy) for _ in (TWIN_CLOCKS if twin else ())
         ]
         self._ceiling = Certainty.exact if kind is not None else Certainty.presence
         self._packets = 0
+        #: What the last quadlet read returned: a stale-data read's answer.
+        self._last_read = 0
 
     def expect(
         self, packet: AsyncPacket | None, damaged: bool, now: float, *, raw: bytes | None = None
@@ -111,16 +139,26 @@ class Reference:
         ``raw``: the bytes as sent, which a path other than FireWire reads its own way.
         """
         path = self.path
+        stale = None
         if path is not None:
             if raw is not None:
-                packet, damaged = path.read(raw)
+                stale = path.stale_read(raw)
+                packet, damaged = (stale, False) if stale is not None else path.read(raw)
             damaged = damaged and path.checks_crc
             if not isinstance(packet, Request) or not path.takes(packet, self.board_id):
                 return _SILENT, self._ceiling
             packet = path.for_board(packet, phy_of(self.node_id))
         if packet is None:
             return _SILENT, self._ceiling
+        if stale is not None and path is not None:
+            # No register is read: the answer carries what the previous read returned.
+            response = path.stale_response(stale, self._last_read)
+            concatenated = self.policy.read_mode == "concatenated"
+            reply = Reply(AckCode.ack_pending, response, concatenated)
+            return self._shaped(packet, reply), self._ceiling
         reply = self._shaped(packet, self.model.receive_packet(packet, now, damaged=damaged))
+        if isinstance(reply.response, QuadletReadResponse):
+            self._last_read = reply.response.quadlet_data
         certainty = self._ceiling
         # No twins (a node restarted with the model): the comparison is exact.
         self._packets += 1

@@ -15,6 +15,7 @@ import time
 from collections.abc import Callable, Iterator
 from dataclasses import replace
 
+from fw1394.errors import Timeout
 from fw1394.fuzz.findings import Finding
 from fw1394.fuzz.malform import header_of, recomputed_crcs, with_header
 from fw1394.fuzz.mutate import delete_quadlet
@@ -31,7 +32,7 @@ class _Budget:
         self.left = replays
 
 
-class _OutOfTime(Exception):
+class _OutOfTime(Timeout):
     """The deadline passed: shrinking stops with the smallest stream found so far."""
 
 

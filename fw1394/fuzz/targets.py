@@ -14,6 +14,7 @@ Target specifications:
 from __future__ import annotations
 
 from fw1394.boards.registry import BOARDS, known_defects
+from fw1394.fuzz.bustarget import BusTarget
 from fw1394.fuzz.clock import SimulatedClock, WallClock
 from fw1394.fuzz.contract import CONTRACTS, contract_path
 from fw1394.fuzz.offsets import OffsetModel, offset_model
@@ -135,6 +136,7 @@ def reference_for(settings: Settings, target: Target) -> Reference:
         CONTRACTS[settings.contract],
         twin=not target.restartable,
         path=contract_path(settings.contract, settings.eth1394),
+        rom=target.rom_identity() if isinstance(target, BusTarget) else None,
     )
 
 

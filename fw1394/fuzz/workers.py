@@ -12,16 +12,23 @@ with ``max_cases`` a run repeats exactly.
 from __future__ import annotations
 
 import multiprocessing
+import os
 import random
+import signal
+import threading
 import time
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Iterator
+from concurrent.futures import Future, ProcessPoolExecutor
+from contextlib import contextmanager
 from dataclasses import replace
+from typing import Any
 
 from fw1394.fuzz import campaign
-from fw1394.fuzz.findings import Store, merged
+from fw1394.fuzz.findings import Finding, Store, merged
 from fw1394.fuzz.report import Report
 from fw1394.fuzz.settings import Settings, SettingsError
 from fw1394.progress import Progress
+from fw1394.transport.supervision.procs import die_with_parent
 
 #: In a target spec or restart command: the worker's number.
 WORKER = "{worker}"
@@ -57,9 +64,9 @@ def run(
 ) -> Report:
     """The campaign of ``settings`` on ``jobs`` worker processes; the merged report.
 
-    One job runs in this process (with ``progress``, its findings kept in ``store``
-    as they are found); several show no progress bar and hand their findings over
-    when they end.
+    One job runs in this process (with ``progress``); several show no progress
+    bar. Either way each finding goes to ``store`` as it is found (forked workers
+    send theirs to this process, which writes them).
     """
     if jobs < 1:
         raise SettingsError("jobs must be at least 1")
@@ -72,14 +79,80 @@ def run(
     if jobs == 1:
         return campaign.run(worker_settings(settings, 0, 1), progress, restart=restart, store=store)
     work = [(worker_settings(settings, w, jobs), restart, w) for w in range(jobs)]
-    with ProcessPoolExecutor(jobs, mp_context=_context()) as pool:
-        reports = list(pool.map(_work, work))
+    context = _context()
+    # A worker left behind by a killed campaign goes too: what it found so far is
+    # written already, and nothing would take the rest.
+    pool = ProcessPoolExecutor(
+        jobs,
+        mp_context=context,
+        initializer=die_with_parent,
+        initargs=(os.getpid(), signal.SIGKILL),
+    )
+    with _forwarded(store, context), pool:
+        futures = [pool.submit(_work, job) for job in work]
+        try:
+            reports = [future.result() for future in futures]
+        except campaign.Terminated:
+            # SIGTERM reached this process only: hand it on, so that every worker ends
+            # its campaign now and returns what it found, as one job would.
+            for child in multiprocessing.active_children():
+                child.terminate()
+            # A worker stopped before its campaign began has nothing to give.
+            reports = [r for r in map(_stopped_result, futures) if r is not None]
+            if not reports:
+                raise
     return merge(settings, reports, time.monotonic() - start)
+
+
+#: Where forked workers put each finding as they find it (inherited, not pickled).
+_FOUND: Any = None
+
+
+class _Forwarding:
+    """A worker's store: each finding goes to the campaign's process, which writes it."""
+
+    def put(self, finding: Finding) -> None:
+        _FOUND.put(finding)
+
+    def report(self, data: dict[str, Any]) -> None:
+        pass  # the merged report is written when the workers end
+
+
+@contextmanager
+def _forwarded(store: Store | None, context: Any) -> Iterator[None]:
+    """Workers forked inside hand their findings to ``store`` as they find them."""
+    global _FOUND
+    if store is None or context.get_start_method() != "fork":
+        yield
+        return
+    queue = context.SimpleQueue()
+
+    def write() -> None:
+        while (finding := queue.get()) is not None:
+            store.put(finding)
+
+    writer = threading.Thread(target=write, name="findings-writer", daemon=True)
+    writer.start()
+    _FOUND = queue
+    try:
+        yield
+    finally:
+        _FOUND = None
+        queue.put(None)
+        writer.join()
+
+
+def _stopped_result(future: Future[Report]) -> Report | None:
+    try:
+        return future.result()
+    except campaign.Terminated:
+        return None
 
 
 def _work(job: tuple[Settings, str | None, int]) -> Report:
     settings, restart, worker = job
-    return campaign.run(settings, restart=restart, worker=worker)
+    sink = _Forwarding() if _FOUND is not None else None
+    return campaign.run(settings, restart=restart, worker=worker, store=sink)
 
 
 def _context() -> multiprocessing.context.BaseContext:

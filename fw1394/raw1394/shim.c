@@ -37,7 +37,7 @@
 #define MAX_PORTS 16
 #define MAX_MESSAGE (1u << 17)
 
-/* Adapter protocol operations (fw1394.transport.adapter_protocol.Op). */
+/* Adapter protocol operations (fw1394.transport.host_adapter.protocol.Op). */
 enum op { OP_INFO, OP_READ, OP_WRITE, OP_LOCK, OP_SEND, OP_HELLO, OP_WATCH, OP_LISTEN,
 	  OP_UNLISTEN, OP_RESPOND, OP_CYCLE_TIME, OP_CONFIG_ROM, OP_RESET, OP_ISO_SEND,
 	  OP_ISO_LISTEN, OP_ADD_DESCRIPTOR, OP_REMOVE_DESCRIPTOR };

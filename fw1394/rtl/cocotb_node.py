@@ -93,6 +93,9 @@ class Node:
         )
         if config.get("every_cycle"):
             phy.runner = False
+        # The model starts from read data 0, as the harness does at time 0: a restart
+        # must not leave the last campaign's value on the bus.
+        self.dut.reg_rdata.value = 0
         self.dut.rst.value = 1
         await phy.idle(RESET_CYCLES)
         in_reset = phy.driven + len(phy.seen)

@@ -48,7 +48,7 @@ from fw1394.packets import (
 from fw1394.packets.ack import ACK_BYTES
 from fw1394.packets.fast import builder, wire_builder
 from fw1394.packets.frame import ACK_FRAME_FORMAT, ACK_FRAME_SIZE
-from fw1394.packets.nodeid import BROADCAST_PHY, LOCAL_BASE, phy_of
+from fw1394.packets.nodeid import BROADCAST_ID, BROADCAST_PHY, LOCAL_BASE, phy_of
 from fw1394.transport.bus_host import (
     MAX_BLOCK_READ,
     MAX_BLOCK_WRITE,
@@ -62,7 +62,8 @@ _pack_ack = ACK_FRAME_FORMAT.pack
 _COMPLETE = ACK_BYTES[AckCode.ack_complete]
 _OFFSET_LIMIT = 1 << 48
 _QUADLET_LIMIT = 1 << 32
-_LAST_NODE = 0xFFFF
+#: Node IDs are 16 bits; the largest, all ones, is the local broadcast.
+_LAST_NODE = BROADCAST_ID
 #: A request kind: its wire bytes from the route and its own fields; the packet
 #: object the requester would have made of the same values, should the general path
 #: take over; and the response class that ends it (a write: WriteResponse, which

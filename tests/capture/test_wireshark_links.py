@@ -203,17 +203,23 @@ def test_live_capture_piped_into_tshark(lua: Path, tmp_path: Path) -> None:
             stdout=subprocess.PIPE, stderr=subprocess.PIPE,
         )  # fmt: skip
         try:
-            time.sleep(2.0)
             with BusPort(config) as port:
                 for node in (0, 1):
                     port.write_quadlet(node, 0x40, 0x1394_0000 + node)
-                values = [port.read_quadlet(node, 0x40) for node in (0, 1, 0, 1)]
+                # Reads go on until the capture's --duration ends: however long its
+                # start-up takes on a busy machine, it sees some of them.
+                deadline = time.monotonic() + 60
+                values: list[int] = []
+                while capture.poll() is None and time.monotonic() < deadline:
+                    values = [port.read_quadlet(node, 0x40) for node in (0, 1, 0, 1)]
+                    time.sleep(0.25)
             trace, err = capture.communicate(timeout=60)
         finally:
             if capture.poll() is None:
                 capture.kill()
                 capture.wait()
     assert capture.returncode == 0, err
+    assert values, "the capture ended before one round of reads"
     assert wait_until_gone(config.name) == []
 
     def piped(*arguments: str) -> list[list[str]]:

@@ -112,6 +112,7 @@ def test_every_check_finds_its_command() -> None:
 
 @pytest.mark.process
 @pytest.mark.netns
+@pytest.mark.slow
 @pytest.mark.skipif(
     os.geteuid() != 0 or not shutil.which("unshare") or not shutil.which("ip"),
     reason="needs root, unshare and iproute2 for a network namespace of its own",

@@ -26,6 +26,9 @@ from fw1394.fuzz.findings import load
 
 pytestmark = [pytest.mark.process]
 
+#: Seconds a campaign process may take to start and find its first findings (its
+#: imports alone take a while on a loaded machine).
+STARTUP_S = 150
 #: Planted defects, each found within the first few hundred cases.
 DEFECTS = ("answers-other-node", "stale-tlabel", "broadcast-read-answered")
 
@@ -86,31 +89,38 @@ def destination_node(packet: bytes) -> int:
     return int.from_bytes(packet[:4], "big") >> 16 & 0x3F
 
 
-def test_a_campaign_killed_mid_run_keeps_every_finding_so_far(tmp_path: Path) -> None:
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_a_campaign_killed_mid_run_keeps_every_finding_so_far(tmp_path: Path, jobs: int) -> None:
     found = tmp_path / "found"
     process = subprocess.Popen(
-        inproc_campaign(found, "--no-progress"),
+        inproc_campaign(found, "--no-progress", "--jobs", str(jobs)),
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
     )
+    workers: list[int] = []
     try:
-        wait_for(lambda: len(reproducers(found)) >= 3 or process.poll() is not None, 60)
+        wait_for(lambda: len(reproducers(found)) >= 3 or process.poll() is not None, STARTUP_S)
         time.sleep(0.5)  # and a little more fuzzing
         assert process.poll() is None, process.stderr.read() if process.stderr else ""
+        workers = [int(pid) for pid in children(process.pid)]
         process.kill()  # SIGKILL: nothing runs after this
     finally:
         process.kill()
         process.wait(30)
+    # Workers left behind end by themselves (the kernel tells them their parent died).
+    wait_for(lambda: not any(alive(pid) for pid in workers), 60)
     files = reproducers(found)
     assert not list(found.glob(".*.tmp")), "a half-written file was left behind"
-    # Every file is a whole finding; the report names exactly the files' findings.
+    # Every file is a whole finding.
     loaded = load(found)
-    assert [path for path, _ in loaded] == files
-    report = json.loads((found / "report.json").read_text())
-    assert report["stopped"] == "running"
-    assert report["cases"] > 0
+    assert [path for path, _ in loaded] == files and len(files) >= 3
     keys = {(f.oracle, f.signature) for _, f in loaded}
-    assert {(f["oracle"], f["signature"]) for f in report["findings"]} <= keys
+    if jobs == 1:  # the report names the files' findings (workers hand on findings only)
+        report = json.loads((found / "report.json").read_text())
+        assert report["stopped"] == "running"
+        assert report["cases"] > 0
+        assert {(f["oracle"], f["signature"]) for f in report["findings"]} <= keys
     # The node (0xffc0) answered a read for another node: that finding's packet says so.
     other = [f for _, f in loaded if f.signature.startswith("other-node:read")]
     assert other and destination_node(other[0].packet) not in (0, 63)
@@ -118,6 +128,16 @@ def test_a_campaign_killed_mid_run_keeps_every_finding_so_far(tmp_path: Path) ->
     assert all(not f.shrunk for _, f in loaded)
 
 
+def alive(pid: int) -> bool:
+    """``pid`` runs (a zombie waiting for its reaper counts as gone)."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (OSError, IndexError):
+        return False
+    return state != "Z"
+
+
+@pytest.mark.timeout(300)
 def test_sigterm_stops_a_campaign_at_once_with_its_findings_saved(tmp_path: Path) -> None:
     """What ``timeout 150 fw1394 fuzz run ...`` sends: the run ends now, findings as found."""
     found = tmp_path / "found"
@@ -128,7 +148,7 @@ def test_sigterm_stops_a_campaign_at_once_with_its_findings_saved(tmp_path: Path
         text=True,
     )
     try:
-        wait_for(lambda: len(reproducers(found)) >= 3 or process.poll() is not None, 60)
+        wait_for(lambda: len(reproducers(found)) >= 3 or process.poll() is not None, STARTUP_S)
         assert process.poll() is None
         process.send_signal(signal.SIGTERM)
         out, err = process.communicate(timeout=60)  # not the 120 s of --duration
@@ -144,6 +164,43 @@ def test_sigterm_stops_a_campaign_at_once_with_its_findings_saved(tmp_path: Path
     loaded = load(found)
     assert len(loaded) == len(saved["findings"]) >= 3
     assert all(not f.shrunk for _, f in loaded)
+
+
+def children(pid: int) -> list[str]:
+    try:
+        return Path(f"/proc/{pid}/task/{pid}/children").read_text().split()
+    except OSError:
+        return []
+
+
+@pytest.mark.timeout(300)
+def test_sigterm_stops_every_worker_and_keeps_their_findings(tmp_path: Path) -> None:
+    """With --jobs the workers are other processes; SIGTERM reaches the campaign's only."""
+    found = tmp_path / "found"
+    workers: list[int] = []
+    process = subprocess.Popen(
+        inproc_campaign(found, "--json", "--jobs", "2"),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        wait_for(lambda: len(children(process.pid)) >= 2 or process.poll() is not None, STARTUP_S)
+        time.sleep(3)  # the workers import and fuzz
+        assert process.poll() is None
+        workers = [int(pid) for pid in children(process.pid)]
+        process.send_signal(signal.SIGTERM)
+        out, err = process.communicate(timeout=60)
+    finally:
+        process.kill()
+        process.wait(30)
+        for pid in workers:  # (gone already unless the test failed)
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGKILL)
+    assert process.returncode == 1, err
+    report = json.loads(out)
+    assert report["stopped"] == "terminated (SIGTERM)"
+    assert report["cases"] > 0 and len(load(found)) == len(report["findings"]) >= 3
 
 
 @pytest.mark.slow

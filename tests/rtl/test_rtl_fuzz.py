@@ -7,6 +7,8 @@ be found by a short seeded campaign (the bounds are those in docs/fuzzing.md).
 
 from __future__ import annotations
 
+from fnmatch import fnmatch
+
 import pytest
 
 from fw1394.fuzz.campaign import run
@@ -55,20 +57,21 @@ def test_campaign_on_the_thesis_rtl_is_clean() -> None:
 @pytest.mark.parametrize(
     ("defect", "cases", "finding"),
     [
-        ("no-header-crc", 10, ("silence", "bad-header-crc:")),
-        ("any-node", 20, ("silence", "other-node:")),
-        ("unbounded-block", 80, ("reply", "read:rcode")),
+        ("no-header-crc", 10, ("silence", "bad-header-crc:*")),
+        ("any-node", 20, ("silence", "other-node:*")),
+        # (a mismatch names the register it happened at: read@NAME:rcode)
+        ("unbounded-block", 80, ("reply", "read*:rcode")),
         ("early-ack", 80, ("silence", "bad-length:write:ack_complete")),
         ("long-hold", 5, ("interface", "hold:read")),
         ("long-write-hold", 20, ("interface", "hold:write")),
         ("no-second-grant", 5, ("interface", "no-grant:read")),
-        ("no-closing-idle", 5, ("interface", "closing-idle:")),
+        ("no-closing-idle", 5, ("interface", "closing-idle:*")),
     ],
 )
 def test_planted_rtl_defects_are_found(defect: str, cases: int, finding: tuple[str, str]) -> None:
     report = run(Settings("rtl:thesis", defects=(defect,), max_cases=cases, shrink_budget=0))
-    oracle, prefix = finding
-    assert any(f.oracle == oracle and f.signature.startswith(prefix) for f in report.findings), [
+    oracle, pattern = finding
+    assert any(f.oracle == oracle and fnmatch(f.signature, pattern) for f in report.findings), [
         (f.oracle, f.signature) for f in report.findings
     ]
 

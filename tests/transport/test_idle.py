@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import math
+import os
 import socket
 import struct
 import time
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
+from fw1394.transport.media import idle
 from fw1394.transport.media.idle import (
     ADAPTIVE,
     BLOCK,
@@ -55,6 +58,22 @@ def test_cores_enough_reads_the_run_queue() -> None:
     # with no CPU at all.
     assert cores_enough(0) is False or not _has_loadavg()
     assert cores_enough(10_000) is True
+
+
+def test_cores_enough_reads_the_runnable_count_afresh_at_every_look(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # /proc/loadavg's fourth field is runnable/total tasks (proc(5)).
+    loadavg = tmp_path / "loadavg"
+    loadavg.write_bytes(b"0.50 0.40 0.30 3/120 4242\n")
+    fd = os.open(loadavg, os.O_RDONLY)
+    try:
+        monkeypatch.setattr(idle, "_loadavg", fd)
+        assert (cores_enough(2), cores_enough(3)) == (False, True)
+        loadavg.write_bytes(b"0.50 0.40 0.30 1/120 4242\n")  # same file, new count
+        assert cores_enough(2) is True
+    finally:
+        os.close(fd)
 
 
 def _has_loadavg() -> bool:

@@ -43,7 +43,7 @@ from fw1394.boards.qla1.firewire import (
     hub_broadcast,
     is_hub_query,
 )
-from fw1394.boards.qla1.paths import ETHERNET_PATH, QREAD_SIZE, zero_crc_bytes
+from fw1394.boards.qla1.paths import ETHERNET_PATH, zero_crc_bytes
 from fw1394.boards.qla1.regs import (
     HUB_MEMORY_BASE,
     BoardRegister,
@@ -84,8 +84,6 @@ CLEAR_ERRORS = 1 << 29
 HUB_READ_WAIT = 0.015
 #: Early hub broadcasts kept for a query not seen yet.
 STASH_LIMIT = 64
-#: A quadlet read of its header quadlets only: answered with stale data (§3.2).
-STALE_QREAD_SIZE = 12
 
 _READS = (QuadletReadRequest, BlockReadRequest)
 _RESPONSE_TCODES = (TCode.read_quadlet_response, TCode.read_block_response)
@@ -143,11 +141,6 @@ def decode_request(raw: bytes) -> Request | None:
     return packet if isinstance(packet, Request) else None
 
 
-def is_stale_read(raw: bytes) -> bool:
-    """``raw`` (a 1394 part) is a quadlet read cut after its header: the stale-data read."""
-    return len(raw) == STALE_QREAD_SIZE and tcode_of(raw) == TCode.read_quadlet_request
-
-
 @dataclass
 class _PendingRead:
     request: BlockReadRequest
@@ -199,9 +192,8 @@ class EthernetPort:
             framed = split_request(payload)
         except Eth1394Error:
             return []
-        stale = is_stale_read(framed.packet)
-        raw = framed.packet.ljust(QREAD_SIZE, b"\0") if stale else framed.packet
-        packet = decode_request(raw)
+        stale = ETHERNET_PATH.stale_read(framed.packet)
+        packet = stale if stale is not None else decode_request(framed.packet)
         if packet is None:
             return []  # never "fresh": ignored
         if packet.destination_bus != LOCAL_BUS:
@@ -232,9 +224,8 @@ class EthernetPort:
             actions.append(Forward(packet, framed.packet))
         if local:
             reply_node = self.board.board_id if control.no_forward else firewire.node_id
-            if stale:
-                assert isinstance(packet, QuadletReadRequest)
-                return [*actions, self._stale(packet, reply_node, control.no_forward, sender, now)]
+            if stale is not None:
+                return [*actions, self._stale(stale, reply_node, control.no_forward, sender, now)]
             actions += self._serve(packet, reply_node, control.no_forward, sender, now)
         return actions
 
@@ -247,12 +238,7 @@ class EthernetPort:
         now: float,
     ) -> Reply:
         """The reply to a 12-byte quadlet read: no register read, the last read's data."""
-        stale = QuadletReadResponse(
-            destination_id=packet.source_id,
-            tlabel=packet.tlabel,
-            source_id=packet.destination_id,
-            quadlet_data=self.last_read,
-        )
+        stale = ETHERNET_PATH.stale_response(packet, self.last_read)
         response = ETHERNET_PATH.answer(stale, packet, reply_node)
         return Reply(sender, zero_crc_bytes(response), self._extra(no_forward), now)
 

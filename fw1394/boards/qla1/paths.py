@@ -25,6 +25,8 @@ from fw1394.packets import (
     BlockReadResponse,
     BlockWriteRequest,
     PacketError,
+    QuadletReadRequest,
+    QuadletReadResponse,
     QuadletWriteRequest,
     Request,
     Response,
@@ -39,6 +41,8 @@ from fw1394.packets.nodeid import node_id as node_id_of
 #: register read starts at the last word the UDP length announces (§3.2).
 SHORT_QREAD_MINIMUM = 14
 QREAD_SIZE = 16
+#: A quadlet read of its three header quadlets only: the stale-data read (§3.2).
+STALE_QREAD_SIZE = 12
 _WRITES = (QuadletWriteRequest, BlockWriteRequest)
 
 
@@ -64,6 +68,31 @@ class Path:
     response_crcs: bool
     #: Writes are answered at all (FireWire acks them; Ethernet sends nothing).
     answers_writes: bool
+    #: A quadlet read cut after its header is answered with the data the previous
+    #: quadlet read returned, no register read (the Ethernet path, §3.2); FireWire
+    #: drops it as too short.
+    answers_stale_reads: bool = False
+
+    def stale_read(self, raw: bytes) -> QuadletReadRequest | None:
+        """The quadlet read ``raw`` names when it is this path's stale-data read, else None."""
+        if not (
+            self.answers_stale_reads
+            and len(raw) == STALE_QREAD_SIZE
+            and tcode_of(raw) == TCode.read_quadlet_request
+        ):
+            return None
+        packet = decode_packet(raw.ljust(QREAD_SIZE, b"\0"))
+        return packet if isinstance(packet, QuadletReadRequest) else None
+
+    @staticmethod
+    def stale_response(request: QuadletReadRequest, last_read: int) -> QuadletReadResponse:
+        """The stale-data read's answer: ``request``'s label and addresses, ``last_read``."""
+        return QuadletReadResponse(
+            destination_id=request.source_id,
+            tlabel=request.tlabel,
+            source_id=request.destination_id,
+            quadlet_data=last_read,
+        )
 
     def takes(self, packet: Request, own_node: int) -> bool:
         """Whether ``packet`` is for the board whose node (Ethernet: board id) is ``own_node``."""
@@ -157,6 +186,7 @@ ETHERNET_PATH = Path(
     answers_broadcast_reads=True,
     response_crcs=False,
     answers_writes=False,
+    answers_stale_reads=True,
 )
 
 PATHS = {path.name: path for path in (FIREWIRE_PATH, ETHERNET_PATH)}

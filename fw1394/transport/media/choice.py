@@ -4,11 +4,11 @@ Both carry the same frames (:mod:`fw1394.packets.frame`) with the same
 semantics (``docs/virtual-bus.md``, "Media"). Every bus uses the UDP medium
 (:class:`~fw1394.transport.media.udp.Medium`) unless ``FW1394_MEDIUM=shm`` puts a
 bus that lives on one host on
-:class:`~fw1394.transport.media.shared_memory.SharedMedium`: a member stopped
-(SIGSTOP, a debugger) while it holds the ring's writer lock stalls every
-writer of a shared-memory bus, which the pause guarantees of the UDP bus do not
-allow, and on the machines measured so far the ring was not faster. Every
-member of one bus must use the same medium.
+:class:`~fw1394.transport.media.shared_memory.SharedMedium`: measured on the
+two-core development machine, interleaved in the same rounds, the ring was
+slower than UDP and cost more CPU per read (``docs/virtual-bus.md``,
+"Performance"), so the default goes by that measurement. Every member of one
+bus must use the same medium.
 """
 
 from __future__ import annotations
