@@ -37,9 +37,7 @@ ALLOWED: dict[str, str] = {
     # Still on their owners' branches.
     "jhu/client.py": "JHU host library",
     "jhu/scan.py": "JHU host library",
-    "engine/defects.py": "engine",
     "engine/requester.py": "engine",
-    "engine/transaction.py": "engine",
     "transport/media/shared_memory.py": "transport",
     "transport/sansio/selfid.py": "transport",
     "fuzz/bus_frames.py": "fuzz",
