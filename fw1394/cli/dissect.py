@@ -8,6 +8,7 @@ import sys
 from typing import TYPE_CHECKING, Any
 
 from fw1394.cli.common import WRITE_ERRNOS, CliError, integer
+from fw1394.packets.nodeid import node_id
 
 if TYPE_CHECKING:
     from fw1394.capture.formats.sources import PortTally
@@ -471,7 +472,7 @@ def _span(outcome: Outcome) -> str:
     nodes = sorted(outcome.nodes_seen)
     text = f", spanning {outcome.duration_s:.6g} s" if outcome.duration_s is not None else ""
     if nodes:
-        text += "; nodes in it: " + ", ".join(f"{n} (0x{0xFFC0 | n:04x})" for n in nodes)
+        text += "; nodes in it: " + ", ".join(f"{n} ({node_id(n):#06x})" for n in nodes)
     return text
 
 

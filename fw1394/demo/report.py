@@ -11,14 +11,7 @@ from typing import Any
 
 from fw1394.boards.snake2010.spec import ENCODER_MIDPOINT
 from fw1394.demo.run import DemoResult
-
-
-def percentile(values: list[float], share: float) -> float:
-    """The ``share`` quantile (0..1) by nearest rank; NaN for no values."""
-    if not values:
-        return math.nan
-    ordered = sorted(values)
-    return ordered[min(len(ordered) - 1, max(0, math.ceil(share * len(ordered)) - 1))]
+from fw1394.percentile import percentile
 
 
 def tracking_errors(result: DemoResult) -> list[float]:
@@ -44,16 +37,14 @@ def summary(result: DemoResult) -> dict[str, Any]:
         "seconds": round(result.seconds, 3),
         "rate_hz": round(result.cycles / result.seconds, 1) if result.seconds else 0.0,
         "period_us": {
-            name: round(percentile(result.periods, share) * micro, 1)
-            for name, share in (("p50", 0.5), ("p99", 0.99), ("max", 1.0))
+            name: round(percentile(result.periods, q) * micro, 1)
+            for name, q in (("p50", 50), ("p99", 99), ("max", 100))
         },
         "cycle_bus_time_us": {
-            name: round(percentile(result.cycle_bus_times, share) * micro, 1)
-            for name, share in (("p50", 0.5), ("p99", 0.99), ("max", 1.0))
+            name: round(percentile(result.cycle_bus_times, q) * micro, 1)
+            for name, q in (("p50", 50), ("p99", 99), ("max", 100))
         },
-        "transactions_per_cycle": round(
-            sum(result.servo_transactions.values()) / result.cycles, 2
-        )
+        "transactions_per_cycle": round(sum(result.servo_transactions.values()) / result.cycles, 2)
         if result.cycles
         else 0.0,
         "transactions_by_kind": result.transactions_by_kind,

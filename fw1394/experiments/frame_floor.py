@@ -24,6 +24,7 @@ from fw1394.experiments.baseline import stop_process
 from fw1394.experiments.timing import TargetError, pin, time_calls
 from fw1394.packets import AckCode, QuadletReadRequest, QuadletReadResponse
 from fw1394.packets.fast import encode_packet
+from fw1394.packets.nodeid import node_id
 from fw1394.transport.media.idle import default_idle
 from fw1394.transport.media.udp import Medium
 from fw1394.transport.sansio.config import BusConfig
@@ -41,9 +42,9 @@ WAIT_S = 1.0
 def frames(config: BusConfig) -> tuple[bytes, bytes, bytes]:
     """The request, the ack with the response, and the requester's ack: a read's bytes."""
     (host, host_phy), (node, node_phy) = HOST, NODE
-    host_id, node_id = 0xFFC0 | host_phy, 0xFFC0 | node_phy
-    read = QuadletReadRequest(destination_id=node_id, tlabel=1, source_id=host_id)
-    response = QuadletReadResponse(destination_id=host_id, tlabel=1, source_id=node_id)
+    host_id, node = node_id(host_phy), node_id(node_phy)
+    read = QuadletReadRequest(destination_id=node, tlabel=1, source_id=host_id)
+    response = QuadletReadResponse(destination_id=host_id, tlabel=1, source_id=node)
     pending = AckPayload(ack_byte(AckCode.ack_pending), 1, 1, encode_packet(response))
     complete = AckPayload(ack_byte(AckCode.ack_complete), 1, 1)
     tag = config.tag

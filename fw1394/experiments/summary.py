@@ -7,13 +7,15 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from fw1394.percentile import percentiles
+
 
 @dataclass(frozen=True)
 class Summary:
     """Statistics of ``count`` times, all in microseconds.
 
-    Percentiles interpolate linearly between the two nearest samples (numpy's
-    default), so p50 of an even count is the mean of the middle two.
+    Percentiles are :func:`fw1394.percentile.percentiles` (numpy's default
+    definition), so p50 of an even count is the mean of the middle two.
     """
 
     count: int
@@ -41,7 +43,7 @@ def summarize(samples_us: Sequence[float]) -> Summary:
     if not samples_us:
         raise ValueError("no samples to summarize")
     values = np.asarray(samples_us, dtype=float)
-    p50, p90, p99 = (float(v) for v in np.percentile(values, [50, 90, 99]))
+    p50, p90, p99 = percentiles(samples_us, (50, 90, 99))
     return Summary(
         count=len(values),
         mean_us=float(values.mean()),

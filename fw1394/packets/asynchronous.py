@@ -18,6 +18,7 @@ from fw1394.packets.enums import ExtendedTCode, RCode, Retry, TCode, name_of
 from fw1394.packets.errors import PacketError
 from fw1394.packets.fields import FieldRangeError
 from fw1394.packets.layouts import LAYOUTS, TCODE_BYTE, TCODE_SHIFT, Layout
+from fw1394.packets.nodeid import bus_of, node_id, phy_of
 
 _QUADLET = struct.Struct(">I")
 
@@ -122,27 +123,27 @@ class AsyncPacket:
 class RoutedPacket(AsyncPacket):
     """Packets sent to one node (or broadcast): every tcode but stream data."""
 
-    destination_id: int = 0xFFC0
+    destination_id: int = node_id(0)
     tlabel: int = 0
     retry: int = Retry.retry_1
     priority: int = 0
-    source_id: int = 0xFFC1
+    source_id: int = node_id(1)
 
     @property
     def destination_bus(self) -> int:
-        return self.destination_id >> 6
+        return bus_of(self.destination_id)
 
     @property
     def destination_node(self) -> int:
-        return self.destination_id & 0x3F
+        return phy_of(self.destination_id)
 
     @property
     def source_bus(self) -> int:
-        return self.source_id >> 6
+        return bus_of(self.source_id)
 
     @property
     def source_node(self) -> int:
-        return self.source_id & 0x3F
+        return phy_of(self.source_id)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

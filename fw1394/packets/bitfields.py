@@ -1,4 +1,8 @@
-"""Flat bit-field tables read out of ``construct`` structs.
+"""Bit fields: the one description of where a field sits, and tables of them.
+
+:class:`BitField` places a field in a header; the quadlet layouts of
+:class:`fw1394.packets.fields.Quadlets` and the flat tables read out of
+``construct`` structs here are both lists of it.
 
 The dissector generators (Lua, scapy), the numpy decoders and the virtual
 bus's frame header need to know where each field sits; they read it from the
@@ -17,14 +21,25 @@ import construct
 
 
 @dataclass(frozen=True)
-class FlatField:
-    """``width`` bits ending at bit ``lsb`` of the big-endian unit at ``byte_offset``."""
+class BitField:
+    """``width`` bits, most significant bit ``msb``, of the big-endian unit at ``byte_offset``.
+
+    The unit is ``byte_size`` bytes (a quadlet in 1394 headers). ``shift``
+    places the bits inside a logical field split across units: the 48-bit
+    offset is its top 16 bits at shift 32 in one quadlet, the rest in the next.
+    """
 
     name: str
     byte_offset: int
     byte_size: int
     msb: int
     width: int
+    shift: int = 0
+
+    @property
+    def quadlet(self) -> int:
+        """Index of the quadlet that holds the field (for quadlet-sized units)."""
+        return self.byte_offset // 4
 
     @property
     def lsb(self) -> int:
@@ -39,12 +54,12 @@ def _is_bit_struct(subcon: Any) -> bool:
     return isinstance(subcon, construct.Transformed) and isinstance(subcon.subcon, construct.Struct)
 
 
-def flatten(struct: construct.Struct, prefix: str = "") -> list[FlatField]:
+def flatten(struct: construct.Struct, prefix: str = "") -> list[BitField]:
     """Every field of ``struct`` in wire order; bit fields get ``parent.child`` names."""
     return list(_walk(struct, prefix))
 
 
-def _walk(struct: construct.Struct, prefix: str) -> Iterator[FlatField]:
+def _walk(struct: construct.Struct, prefix: str) -> Iterator[BitField]:
     offset = 0
     for renamed in struct.subcons:
         subcon = renamed.subcon
@@ -54,15 +69,15 @@ def _walk(struct: construct.Struct, prefix: str) -> Iterator[FlatField]:
             msb = 8 * size - 1
             for bit in subcon.subcon.subcons:
                 width = bit.subcon.sizeof()
-                yield FlatField(f"{name}.{bit.name}", offset, size, msb, width)
+                yield BitField(f"{name}.{bit.name}", offset, size, msb, width)
                 msb -= width
         elif isinstance(subcon, construct.Struct):
             for inner in _walk(subcon, f"{name}."):
-                yield FlatField(
+                yield BitField(
                     inner.name, offset + inner.byte_offset, inner.byte_size, inner.msb, inner.width
                 )
         else:
-            yield FlatField(name, offset, size, 8 * size - 1, 8 * size)
+            yield BitField(name, offset, size, 8 * size - 1, 8 * size)
         offset += size
 
 

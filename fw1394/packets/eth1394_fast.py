@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import struct
 
-from fw1394.packets.bitfields import FlatField, flatten, struct_format
+from fw1394.packets.bitfields import BitField, flatten, struct_format
 from fw1394.packets.eth1394 import (
     CONTROL_WORD,
     CONTROL_WORD_SIZE,
@@ -42,7 +42,7 @@ _ECHO_BYTE = _ECHO.byte_offset - EXTRA_SIZE
 _GENERATION_BYTE = _EXTRA_FIELDS["fpga_bus_generation"].byte_offset - EXTRA_SIZE
 
 
-def _bits(field: FlatField, unit: int) -> int:
+def _bits(field: BitField, unit: int) -> int:
     return unit >> field.lsb & field.mask
 
 

@@ -18,34 +18,14 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import construct
 from construct import Container, StreamError, stream_read, stream_write
 
 from fw1394.errors import PacketError
+from fw1394.packets.bitfields import BitField
 from fw1394.packets.codegen import compile_function
-
-
-@dataclass(frozen=True)
-class BitField:
-    """``width`` bits of quadlet ``quadlet``, most significant bit ``msb``."""
-
-    name: str
-    quadlet: int
-    msb: int
-    width: int
-    shift: int
-
-    @property
-    def lsb(self) -> int:
-        return self.msb - self.width + 1
-
-    @property
-    def mask(self) -> int:
-        return (1 << self.width) - 1
-
 
 FieldSpec = tuple[str, int] | tuple[str, int, int]
 
@@ -225,7 +205,7 @@ def _place(quadlets: Sequence[Sequence[FieldSpec]]) -> Iterator[BitField]:
         for spec in specs:
             name, width = spec[0], spec[1]
             shift = spec[2] if len(spec) == 3 else 0
-            yield BitField(name, index, msb, width, shift)
+            yield BitField(name, 4 * index, 4, msb, width, shift)
             msb -= width
         if msb != -1:
             raise ValueError(f"quadlet {index} of {specs!r} does not add up to 32 bits")

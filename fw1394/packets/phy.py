@@ -204,7 +204,7 @@ class PhyConfigPacket(PhyPacket):
     # With neither R nor T set the quadlet would be a 1394a extended PHY packet,
     # so the default sets the gap count (to 63, its value after a bus reset).
     gap_count_optimization: bool = True
-    gap_count: int = 63
+    gap_count: int = 63  # not a node ID: the gap count a bus reset leaves
     reserved: int = 0
 
 

@@ -8,6 +8,7 @@ from typing import Any
 from fw1394.packets.ack import Ack
 from fw1394.packets.asynchronous import AsyncPacket, RoutedPacket
 from fw1394.packets.enums import ExtendedTCode, PortStatus, RCode, Retry, Speed, TCode, name_of
+from fw1394.packets.nodeid import bus_of, phy_of
 from fw1394.packets.phy import PhyPacket
 
 Renderable = AsyncPacket | PhyPacket | Ack
@@ -201,7 +202,7 @@ def _meaning(key: str, value: Any) -> str:
     if key in ENUM_OF_FIELD:
         return name_of(ENUM_OF_FIELD[key], value)
     if key in ("destination_id", "source_id"):
-        return f"bus {value >> 6:#x}, node {value & 0x3F}"
+        return f"bus {bus_of(value):#x}, node {phy_of(value)}"
     if key.startswith("port") and len(key) == 5:
         return name_of(PortStatus, value)
     return ""

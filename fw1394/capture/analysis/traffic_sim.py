@@ -183,7 +183,10 @@ class _Bus:
     def unsolicited(self) -> None:
         node, host = LOCAL_BASE, LOCAL_BASE | self.host
         stray = QuadletReadResponse(
-            destination_id=host, source_id=node, tlabel=63, quadlet_data=0xDEAD
+            destination_id=host,
+            source_id=node,
+            tlabel=63,  # not a node ID: the highest tlabel
+            quadlet_data=0xDEAD,
         )
         self.emit(encode(stray), 0, AckCode.ack_complete, 4_000)
 

@@ -18,7 +18,7 @@ from construct import BitsInteger, BitStruct, Flag, Int8ub, Int16ub, Struct
 
 from fw1394.capture.formats.record import SPEED_UNKNOWN, BusRecord, Direction, RecordType
 from fw1394.packets.ack import ACK_CODE_MASK
-from fw1394.packets.bitfields import FlatField, flatten, struct_format
+from fw1394.packets.bitfields import BitField, flatten, struct_format
 from fw1394.packets.nodeid import phy_of
 
 #: LINKTYPE_USER0; Wireshark's Lua dissector binds to the same slot.
@@ -50,7 +50,7 @@ PSEUDO_HEADER = Struct(
     "reserved" / Int16ub,
 )
 HEADER_LENGTH = PSEUDO_HEADER.sizeof()
-FIELDS: dict[str, FlatField] = {field.name: field for field in flatten(PSEUDO_HEADER)}
+FIELDS: dict[str, BitField] = {field.name: field for field in flatten(PSEUDO_HEADER)}
 #: The one-bit and small flags, in the order of the flags word (Wireshark: ph.flags.NAME).
 FLAG_NAMES = tuple(name.removeprefix("flags.") for name in FIELDS if name.startswith("flags."))
 _PACKER = struct.Struct(struct_format(PSEUDO_HEADER))

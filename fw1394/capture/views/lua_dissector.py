@@ -30,7 +30,7 @@ from fw1394.crc import crc32
 from fw1394.packets import LAYOUTS, PHY_CLASSES, PacketError
 from fw1394.packets.accessors import PHY_KIND_BITS, TCODE, FieldReader
 from fw1394.packets.ack import ACK_LAYOUT
-from fw1394.packets.bitfields import FlatField, flatten
+from fw1394.packets.bitfields import BitField, flatten
 from fw1394.packets.enums import AckCode, ExtendedTCode, RCode, Retry, Speed, TCode
 from fw1394.packets.eth1394 import (
     CONTROL_WORD,
@@ -39,7 +39,6 @@ from fw1394.packets.eth1394 import (
     EXTRA_SIZE,
     UDP_PORT,
 )
-from fw1394.packets.fields import BitField
 from fw1394.packets.nodeid import BROADCAST_PHY
 from fw1394.packets.phy import PhyPacket, phy_class_of
 from fw1394.packets.tcodes import REQUEST_TCODES, RESPONSE_OF_REQUEST, RESPONSE_TCODES
@@ -86,7 +85,7 @@ def _bitfields_table(bitfields: Iterable[BitField], prefix: str = "") -> str:
     return "{ " + ", ".join(rows) + " }"
 
 
-def _flat_table(fields: Iterable[FlatField], prefix: str) -> str:
+def _flat_table(fields: Iterable[BitField], prefix: str) -> str:
     rows = []
     for field in fields:
         rows.append(_flat_row(field, prefix + field.name.replace(".", "_")))
@@ -97,11 +96,11 @@ def _reader_row(reader: FieldReader) -> str:
     """A one-quadlet field as a row ``flat_value`` reads: bytes, shift and mask from its layout."""
     first, size, shift = reader.byte_span
     width = reader.parts[0].width
-    row = FlatField(reader.name, first, size, shift + width - 1, width)
+    row = BitField(reader.name, first, size, shift + width - 1, width)
     return _flat_row(row, reader.name)
 
 
-def _flat_row(field: FlatField, name: str) -> str:
+def _flat_row(field: BitField, name: str) -> str:
     return (
         f"{{ {_lua_string(name)}, {field.byte_offset}, {field.byte_size}, {field.lsb}, "
         f"{field.mask:#x}, {_lua_string(field.name)} }}"

@@ -32,9 +32,9 @@ from fw1394.capture.formats.record import RecordType
 from fw1394.packets import LAYOUTS, PacketError
 from fw1394.packets.accessors import DESTINATION_ID, TCODE
 from fw1394.packets.ack import ACK_LAYOUT
-from fw1394.packets.bitfields import FlatField, flatten
+from fw1394.packets.bitfields import BitField as LayoutBit
+from fw1394.packets.bitfields import flatten
 from fw1394.packets.eth1394 import CONTROL_WORD, EXTRA_BYTES, EXTRA_SIZE, UDP_PORT
-from fw1394.packets.fields import BitField as LayoutBit
 from fw1394.packets.phy import PHY_CLASSES, phy_class_of
 from fw1394.transport.sansio.config import DEFAULT_BUS
 
@@ -78,7 +78,7 @@ def _bit_fields(
     return fields
 
 
-def _flat_fields(flat: Iterable[FlatField]) -> list[Any]:
+def _flat_fields(flat: Iterable[LayoutBit]) -> list[Any]:
     return _bit_fields((field.name.replace(".", "_"), field.width) for field in flat)
 
 
