@@ -36,8 +36,8 @@ from pathlib import Path
 from typing import Any
 
 from fw1394.engine import ReadCompleted, TransactionFailed, WriteCompleted
+from fw1394.engine.faults import FaultConfig
 from fw1394.transport.bus_host import MAX_BLOCK_WRITE, BusHost
-from fw1394.transport.faults import FaultConfig
 from fw1394.transport.sansio.config import BusConfig
 from fw1394.transport.sansio.membership import Timing
 from fw1394.transport.supervision.launch import LaunchedBus

@@ -25,8 +25,8 @@ from fw1394.boards.snake2010.board import Snake2010Board
 from fw1394.boards.snake2010.regmap import REGISTER_MAP as SNAKE2010_MAP
 from fw1394.boards.snake2010.spec import Z_THETA_CHANNELS
 from fw1394.engine.defects import PACKET_DEFECTS
+from fw1394.engine.faults import FaultConfig
 from fw1394.engine.space import AddressSpace
-from fw1394.transport.faults import FaultConfig
 from fw1394.transport.sansio.config import BusConfig
 from fw1394.transport.sansio.membership import Timing
 

@@ -14,9 +14,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from fw1394.boards.registry import BOARDS, check_defects
+from fw1394.engine.faults import FaultConfig
 from fw1394.engine.policy import POLICIES
 from fw1394.errors import UsageError
-from fw1394.transport.faults import FaultConfig
 from fw1394.transport.sansio.config import DEFAULT_BUS, BusConfig, BusNameError
 from fw1394.transport.sansio.membership import Timing
 

@@ -17,9 +17,9 @@ from dataclasses import dataclass, field
 
 from fw1394.engine import THESIS_FPGA, Responder, ResponderPolicy
 from fw1394.engine.defects import DefectiveResponder
+from fw1394.engine.faults import FaultConfig
 from fw1394.engine.space import AddressSpace
 from fw1394.packets.nodeid import BROADCAST_ID
-from fw1394.transport.faults import FaultConfig
 from fw1394.transport.link import BusRefusedError, ResponderLink
 from fw1394.transport.media.idle import IdleStrategy
 from fw1394.transport.node_express import node_turn

@@ -16,7 +16,8 @@ plumbing, node or host), :mod:`~fw1394.transport.link` (frames to engine calls a
 back, both roles), :mod:`~fw1394.transport.node_express` (a node's common turn in one
 pass), :mod:`~fw1394.transport.bus_host` (the host member; :mod:`fw1394.host.bus_port`
 puts the host library's blocking calls on it), :mod:`~fw1394.transport.copies`
-(second copies of an answer), :mod:`~fw1394.transport.faults` (fault injection), and
+(second copies of an answer; fault injection is the engine's
+:mod:`~fw1394.engine.faults`), and
 the Eth1394 world's addresses and UDP port checks (:mod:`~fw1394.transport.eth1394_addresses`,
 :mod:`~fw1394.transport.udp_ports`).
 

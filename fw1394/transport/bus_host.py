@@ -23,13 +23,13 @@ from typing import Self
 
 from fw1394 import errors
 from fw1394.engine import Event, FailureReason, Requester, TransactionEvent, TransactionFailed
+from fw1394.engine.faults import FaultConfig
 from fw1394.errors import BusUnreachable
 from fw1394.packets import AckCode, BlockReadResponse, RCode, name_of
 from fw1394.packets.fast import encode_packet
 from fw1394.packets.nodeid import BROADCAST_ID, resolve
 from fw1394.packets.nodeid import LOCAL_BUS as LOCAL_BUS  # the bus hosts address, re-exported
 from fw1394.transport.copies import HostLink
-from fw1394.transport.faults import FaultConfig
 from fw1394.transport.link import ACK_SIZE, BusRefusedError
 from fw1394.transport.media.idle import IdleStrategy
 from fw1394.transport.sansio.config import BusConfig

@@ -19,9 +19,9 @@ import time
 from collections.abc import Callable, Iterator
 from itertools import count
 
+from fw1394.engine.faults import FaultConfig, FaultInjector
 from fw1394.packets import Speed
 from fw1394.packets.frame import FRAME_TRAILER_SIZE
-from fw1394.transport.faults import FaultConfig, FaultInjector
 from fw1394.transport.media.choice import open_medium
 from fw1394.transport.media.idle import IdleStrategy, default_idle
 from fw1394.transport.sansio.config import BusConfig

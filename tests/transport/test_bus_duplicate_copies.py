@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 
-from fw1394.transport.faults import FaultConfig
+from fw1394.engine.faults import FaultConfig
 from fw1394.transport.sansio.config import BusConfig
 from fw1394.transport.sansio.seal import Verifier
 from fw1394.transport.sansio.wire import FrameKind

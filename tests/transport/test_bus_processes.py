@@ -16,10 +16,10 @@ from fw1394.capture.formats.bus_tap import BusTap
 from fw1394.capture.formats.record import RecordType
 from fw1394.cli.main import main
 from fw1394.engine import FailureReason, ReadCompleted, TransactionFailed
+from fw1394.engine.faults import FaultConfig
 from fw1394.host.bus_port import BusPort
 from fw1394.packets import AckCode, SelfIdPacket, decode
 from fw1394.transport.bus_host import TransactionError
-from fw1394.transport.faults import FaultConfig
 from fw1394.transport.sansio.config import BusConfig
 from fw1394.transport.sansio.membership import Timing
 from fw1394.transport.supervision.launch import LaunchedBus

@@ -6,7 +6,7 @@ import socket
 
 import pytest
 
-from fw1394.transport.faults import FaultConfig, FaultInjector
+from fw1394.engine.faults import FaultConfig, FaultInjector
 from fw1394.transport.media.udp import Medium
 from fw1394.transport.sansio.config import BusConfig, BusNameError
 from fw1394.transport.sansio.wire import (

@@ -17,10 +17,10 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from fw1394.engine import ReadCompleted, TransactionFailed
+from fw1394.engine.faults import FaultConfig
 from fw1394.host.adapter_port import AdapterPort
 from fw1394.host.bus_port import BusPort
 from fw1394.transport.copies import WINDOW, RecentFrames
-from fw1394.transport.faults import FaultConfig
 from fw1394.transport.host_adapter.protocol import Op, Status
 from fw1394.transport.sansio.membership import Timing
 

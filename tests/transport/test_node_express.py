@@ -31,6 +31,7 @@ from hypothesis import strategies as st
 from fw1394.boards.memory.board import MemorySpace
 from fw1394.engine import Responder
 from fw1394.engine.defects import DefectiveResponder
+from fw1394.engine.faults import FaultConfig
 from fw1394.engine.policy import POLICIES
 from fw1394.packets import (
     AckCode,
@@ -47,7 +48,6 @@ from fw1394.packets.fast import encode_packet
 from fw1394.transport import link as link_module
 from fw1394.transport import node_express
 from fw1394.transport import station as station_module
-from fw1394.transport.faults import FaultConfig
 from fw1394.transport.link import ResponderLink
 from fw1394.transport.media.idle import BLOCK, IdleStrategy
 from fw1394.transport.node_express import node_turn

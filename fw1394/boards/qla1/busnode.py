@@ -46,6 +46,7 @@ from fw1394.boards.qla1.firewire import (
 )
 from fw1394.engine import JHU_FIRMWARE, Responder
 from fw1394.engine.defects import DefectiveResponder
+from fw1394.engine.faults import FaultConfig
 from fw1394.engine.responder import decode_received
 from fw1394.packets import BlockWriteRequest, Request, Response
 from fw1394.packets.eth1394 import MULTICAST_GROUP
@@ -59,7 +60,6 @@ from fw1394.transport.eth1394_addresses import (
     parse_endpoint,
     require_loopback,
 )
-from fw1394.transport.faults import FaultConfig
 from fw1394.transport.link import ACK, ASYNC_PACKET, ResponderLink
 from fw1394.transport.sansio.config import BusConfig
 from fw1394.transport.sansio.membership import BusReset, Timing
