@@ -199,12 +199,15 @@ def _client(args: argparse.Namespace) -> Any:
         raise CliError(f"--receive-timeout {args.receive_timeout}: use 0 to 10 seconds")
     endpoint = parse_endpoint(rest)
     logger = (lambda text: print(text, file=sys.stderr)) if args.verbose else None
-    return EthUdpClient(
-        endpoint,
-        force_bridge=kind == "udpfw",
-        receive_timeout=args.receive_timeout,
-        log=logger,
-    )
+    try:
+        return EthUdpClient(
+            endpoint,
+            force_bridge=kind == "udpfw",
+            receive_timeout=args.receive_timeout,
+            log=logger,
+        )
+    except OSError as error:  # no loopback to send on (a namespace with lo down)
+        raise CliError(f"-p {args.port_spec}: {error.strerror or error}") from None
 
 
 def run_host(args: argparse.Namespace) -> int:
