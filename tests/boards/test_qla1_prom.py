@@ -12,13 +12,13 @@ against ``jhu serve``'s server, with datagrams built here from §1.2 and §2.3.
 
 from __future__ import annotations
 
-import os
 import random
 import socket
 import threading
 from collections.abc import Iterator
 
 import pytest
+from udp_ports_support import quiet_udp_port
 
 from fw1394.boards.qla1.board import Qla1Board
 
@@ -229,7 +229,7 @@ def server_port() -> Iterator[int]:
     from fw1394.boards.qla1.rack import Rack
     from fw1394.transport.eth1394_addresses import Endpoint
 
-    port = 33_000 + os.getpid() % 20_000
+    port = quiet_udp_port()
     server = Eth1394Server(Rack([0], firmware=8), Endpoint("127.0.0.1", port))
     thread = threading.Thread(target=server.serve_forever, daemon=True)
     thread.start()

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 from polling import wait_until
+from udp_ports_support import quiet_udp_port
 
 from fw1394.capture.analysis.columns import decode
 from fw1394.capture.analysis.sample_traces import (
@@ -109,7 +110,7 @@ def packet_socket_on(pid: int, interface: str) -> bool:
 @pytest.mark.skipif(not _can_sniff(), reason="live UDP capture needs CAP_NET_RAW (root)")
 @pytest.mark.process
 def test_live_udp_capture_closes_cleanly_on_ctrl_c(tmp_path: Path) -> None:
-    port = 30000 + os.getpid() % 20000
+    port = quiet_udp_port()
     path = tmp_path / "live.pcapng"
     process = subprocess.Popen(
         [

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
 import threading
 import time
 from collections.abc import Iterator
@@ -11,6 +10,7 @@ from typing import Any
 
 import pytest
 from bus_support import bus_name, processes_mentioning, wait_until_gone
+from udp_ports_support import quiet_udp_port
 
 from fw1394.boards.qla1.eth_server import Eth1394Server
 from fw1394.boards.qla1.rack import Rack
@@ -27,7 +27,7 @@ from fw1394.transport.sansio.config import BusConfig
 from fw1394.transport.supervision.launch import LaunchedBus
 
 SMALL = ["--iterations", "300", "--sizes", "1,8,64,512", "--passes", "2", "--quiet", "--json"]
-PORT = 40_000 + os.getpid() % 10_000
+PORT = quiet_udp_port()
 
 
 def bench(capsys: pytest.CaptureFixture[str], *argv: str) -> dict[str, Any]:

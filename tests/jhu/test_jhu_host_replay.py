@@ -17,6 +17,7 @@ import threading
 from collections.abc import Iterator
 
 import pytest
+from udp_ports_support import quiet_udp_port
 
 from fw1394.boards.qla1.eth_server import Eth1394Server, MulticastRefusedError
 from fw1394.boards.qla1.rack import Rack
@@ -26,7 +27,7 @@ from fw1394.jhu.rt_loop import Command, RealTimeLoop
 from fw1394.jhu.scan import Protocol, start
 from fw1394.transport.eth1394_addresses import Endpoint
 
-PORT = 30_000 + os.getpid() % 20_000
+PORT = quiet_udp_port(span=10)
 POWER_ON = 0x000C0000  # STATUS command: power enable (mask bit 19, value bit 18)
 
 

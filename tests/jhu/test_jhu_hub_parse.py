@@ -4,10 +4,10 @@ every firmware family, sequences past 255 included."""
 
 from __future__ import annotations
 
-import os
 import threading
 
 import pytest
+from udp_ports_support import quiet_udp_port
 
 from fw1394.boards.qla1.eth_server import Eth1394Server
 from fw1394.boards.qla1.rack import Rack
@@ -17,7 +17,7 @@ from fw1394.jhu.rt_loop import RealTimeLoop
 from fw1394.jhu.scan import Protocol, start
 from fw1394.transport.eth1394_addresses import Endpoint
 
-PORT = 31_000 + os.getpid() % 20_000
+PORT = quiet_udp_port(span=9)
 
 
 def block(board_id: int, length: int, marker: int) -> list[int]:
