@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
 
-from fw1394.cli.common import CliError, integer
+from fw1394.cli.common import CliError, integer, print_json
 from fw1394.packets.nodeid import LOCAL_BASE
 
 EXAMPLES = """\
@@ -209,37 +208,34 @@ def add_run_options(run: argparse.ArgumentParser) -> None:
 
 
 def settings_of(args: argparse.Namespace) -> Any:
-    from fw1394.fuzz.settings import Settings, SettingsError
+    from fw1394.fuzz.settings import Settings
     from fw1394.fuzz.targets import check
 
-    try:
-        settings = Settings(
-            target=args.target,
-            contract=args.oracle,
-            model=args.model,
-            board_id=args.board_id,
-            node_id=args.node_id,
-            policy=args.policy,
-            defects=tuple(args.defect),
-            seed=args.seed,
-            max_cases=args.max_cases,
-            duration=args.duration,
-            probe_every=args.probe_every,
-            state_every=args.state_every,
-            timeout=args.timeout,
-            dead_after=args.dead_after,
-            eth1394=args.eth1394,
-            corpus=tuple(args.corpus),
-            shrink_budget=args.shrink_budget,
-            history=args.history,
-            probe_offset=args.probe_offset,
-            pid=args.pid,
-            speed=args.speed,
-            sclk_mhz=args.sclk_mhz,
-        )
-        check(settings)
-    except SettingsError as error:
-        raise CliError(str(error)) from None
+    settings = Settings(
+        target=args.target,
+        contract=args.oracle,
+        model=args.model,
+        board_id=args.board_id,
+        node_id=args.node_id,
+        policy=args.policy,
+        defects=tuple(args.defect),
+        seed=args.seed,
+        max_cases=args.max_cases,
+        duration=args.duration,
+        probe_every=args.probe_every,
+        state_every=args.state_every,
+        timeout=args.timeout,
+        dead_after=args.dead_after,
+        eth1394=args.eth1394,
+        corpus=tuple(args.corpus),
+        shrink_budget=args.shrink_budget,
+        history=args.history,
+        probe_offset=args.probe_offset,
+        pid=args.pid,
+        speed=args.speed,
+        sclk_mhz=args.sclk_mhz,
+    )
+    check(settings)
     return settings
 
 
@@ -252,7 +248,9 @@ def run_campaign(args: argparse.Namespace) -> int:
     directory = Path(args.findings)
     try:
         earlier = findings.prepare(directory, force=args.force, merge=args.merge)
-    except (findings.FindingsExist, ValueError) as error:
+    except findings.FindingsExist:
+        raise
+    except ValueError as error:  # a file in DIR that is not a finding: its message names it
         raise CliError(str(error)) from None
     if args.jobs < 1:
         raise CliError("--jobs must be at least 1")
@@ -268,14 +266,11 @@ def run_campaign(args: argparse.Namespace) -> int:
     if args.cluster is not None and args.restart is not None:
         raise CliError("--cluster runs without --restart")
     if args.plot is not None:
-        from fw1394.capture.views.trace_plots import PlotError, check_plot_path
+        from fw1394.capture.views.trace_plots import check_plot_path
 
         if args.jobs != 1 or args.cluster is not None or args.engine == "hypothesis":
             raise CliError("--plot draws a campaign of one job of the fast engine")
-        try:
-            check_plot_path(args.plot)
-        except PlotError as error:
-            raise CliError(str(error)) from None
+        check_plot_path(args.plot)
     try:
         store = findings.Store(directory, earlier)
     except OSError as error:
@@ -306,12 +301,9 @@ def run_campaign(args: argparse.Namespace) -> int:
     if args.plot is not None:
         from fw1394.fuzz.plot import plot_campaign
 
-        try:
-            plot_campaign(report, Path(args.plot))
-        except PlotError as error:
-            raise CliError(str(error)) from None
+        plot_campaign(report, Path(args.plot))
     if args.json:
-        print(json.dumps(report.to_json()))
+        print_json(report.to_json())
     else:
         print("\n".join(report.lines()))
         if report.findings:
@@ -332,7 +324,7 @@ def run_replay(args: argparse.Namespace) -> int:
     results = _guarded(lambda: replay_all(loaded, args.target, args.restart))
     for result in results:
         if args.json:
-            print(json.dumps(result.to_json()))
+            print_json(result.to_json())
         else:
             print(result.line())
     return 1 if any(r.reproduced for r in results) else 0
@@ -340,28 +332,21 @@ def run_replay(args: argparse.Namespace) -> int:
 
 def run_serve(args: argparse.Namespace) -> int:
     from fw1394.fuzz.contract import CONTRACTS
-    from fw1394.fuzz.serve import ServeError, TunnelNode, loopback_address
-    from fw1394.fuzz.settings import Settings, SettingsError, default_policy
+    from fw1394.fuzz.serve import TunnelNode, loopback_address
+    from fw1394.fuzz.settings import Settings, default_policy
     from fw1394.fuzz.targets import check
-    from fw1394.transport.udp_ports import PortInUseError, refuse_taken_port
+    from fw1394.transport.udp_ports import refuse_taken_port
 
     if args.parent_pid is not None:
         from fw1394.transport.supervision.procs import die_with_parent
 
         die_with_parent(args.parent_pid)
-    try:
-        address = loopback_address(args.listen)
-        target = f"inproc:{args.board}"
-        check(Settings(target, board_id=args.board_id, defects=tuple(args.defect)))
-    except (ServeError, SettingsError) as error:
-        raise CliError(str(error)) from None
+    address = loopback_address(args.listen)
+    check(Settings(f"inproc:{args.board}", board_id=args.board_id, defects=tuple(args.defect)))
     if args.duration is not None and args.duration <= 0:
         raise CliError("--duration must be positive")
     policy = CONTRACTS[args.policy or default_policy(args.board)]
-    try:
-        refuse_taken_port(*address)
-    except PortInUseError as error:
-        raise CliError(str(error)) from None
+    refuse_taken_port(*address)
     try:
         node = TunnelNode(
             address,
@@ -411,11 +396,6 @@ def add_defect_option(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def defect_arguments(args: argparse.Namespace) -> tuple[str, ...]:
-    """The ``--defect`` options again, to hand on to node processes."""
-    return tuple(part for name in args.defect for part in ("--defect", name))
-
-
 def checked_defects(kind: str, names: list[str]) -> frozenset[str]:
     """``names`` if board ``kind`` (or the responder) knows each, else a one-line error."""
     from fw1394.boards.registry import check_defects
@@ -427,14 +407,8 @@ def checked_defects(kind: str, names: list[str]) -> frozenset[str]:
 
 
 def _guarded(action: Any) -> Any:
-    """Run ``action``; failures of the environment become one-line errors."""
-    from fw1394.fuzz.corpus import CorpusError
-    from fw1394.fuzz.settings import SettingsError
-    from fw1394.fuzz.target import TargetGone
-
+    """Run ``action``; an error of the target's socket or process says it is the target's."""
     try:
         return action()
-    except (CorpusError, SettingsError, TargetGone) as error:
-        raise CliError(str(error)) from None
     except OSError as error:
         raise CliError(f"target: {error.strerror or error}") from None

@@ -10,13 +10,12 @@ from __future__ import annotations
 
 import argparse
 import gc
-import json
 import signal
 import sys
 from types import FrameType
 from typing import Any
 
-from fw1394.cli.common import CliError, integer, print_table
+from fw1394.cli.common import CliError, integer, print_json, print_table
 from fw1394.errors import Error
 
 EXAMPLES = """\
@@ -116,25 +115,31 @@ def register(subparsers: Any) -> None:
 def run_serve(args: argparse.Namespace) -> int:
     from fw1394.boards.qla1.eth_server import Eth1394Server
     from fw1394.boards.qla1.rack import Rack
-    from fw1394.transport.eth1394_addresses import AddressRefusedError, parse_endpoint
+    from fw1394.transport.eth1394_addresses import parse_endpoint
     from fw1394.transport.udp_ports import PortInUseError
 
+    endpoint = parse_endpoint(args.eth1394)
     try:
-        endpoint = parse_endpoint(args.eth1394)
         ids = (
             [int(part) for part in args.board_ids.split(",")]
             if args.board_ids
             else list(range(args.boards))
         )
+    except ValueError:
+        raise CliError(f"--board-ids {args.board_ids}: give numbers, as 0,1,2") from None
+    try:
         rack = Rack(
             ids,
             firmware=args.firmware,
             fpga_version=args.fpga_version,
             git_description=args.git_description,
         )
-        server = Eth1394Server(rack, endpoint, share_port=args.reuse_port)
-    except (AddressRefusedError, PortInUseError, ValueError) as error:
+    except ValueError as error:  # the rack's plain ValueError: no boards, a repeated ID
         raise CliError(str(error)) from None
+    try:
+        server = Eth1394Server(rack, endpoint, share_port=args.reuse_port)
+    except PortInUseError:
+        raise  # names the port and its holder already
     except PermissionError:
         raise CliError(
             f"cannot bind UDP port {endpoint.port}: run as root, grant CAP_NET_BIND_SERVICE "
@@ -185,24 +190,24 @@ class _Stopped(Error):
 
 def _client(args: argparse.Namespace) -> Any:
     from fw1394.jhu.client import EthUdpClient
-    from fw1394.transport.eth1394_addresses import AddressRefusedError, parse_endpoint
+    from fw1394.transport.eth1394_addresses import parse_endpoint
 
     kind, _, rest = args.port_spec.partition(":")
     if kind not in ("udp", "udpfw"):
         raise CliError(f"-p {args.port_spec}: only udp:IP[:PORT] and udpfw:IP[:PORT]")
+    if not 0 < args.receive_timeout <= 10:
+        raise CliError(f"--receive-timeout {args.receive_timeout}: use 0 to 10 seconds")
+    endpoint = parse_endpoint(rest)
+    logger = (lambda text: print(text, file=sys.stderr)) if args.verbose else None
     try:
-        endpoint = parse_endpoint(rest)
-        logger = (lambda text: print(text, file=sys.stderr)) if args.verbose else None
-        if not 0 < args.receive_timeout <= 10:
-            raise CliError(f"--receive-timeout {args.receive_timeout}: use 0 to 10 seconds")
         return EthUdpClient(
             endpoint,
             force_bridge=kind == "udpfw",
             receive_timeout=args.receive_timeout,
             log=logger,
         )
-    except AddressRefusedError as error:
-        raise CliError(str(error)) from None
+    except OSError as error:  # no loopback to send on (a namespace with lo down)
+        raise CliError(f"-p {args.port_spec}: {error.strerror or error}") from None
 
 
 def run_host(args: argparse.Namespace) -> int:
@@ -232,7 +237,7 @@ def _print_scan(scan: Any, as_json: bool) -> int:
     ]
     mode = "bridge" if scan.bridge else "ethernet-only"
     if as_json:
-        print(json.dumps({"mode": mode, "hub_board": scan.hub_board, "boards": rows}))
+        print_json({"mode": mode, "hub_board": scan.hub_board, "boards": rows})
         return 0
     print(f"mode {mode}, hub board {scan.hub_board}, protocol {scan.protocol.value}")
     table: list[tuple[str, ...]] = [("NODE", "BOARD", "HARDWARE", "FIRMWARE", "FPGA")]
@@ -254,7 +259,10 @@ def _run_access(client: Any, scan: Any, args: argparse.Namespace) -> int:
         value = client.read_quadlet_node(node, args.address)
         if value is None:
             raise CliError("ReadQuadlet Failed")
-        print(json.dumps({"value": value}) if args.json else f"0x{value:08x}")
+        if args.json:
+            print_json({"value": value})
+        else:
+            print(f"0x{value:08x}")
         return 0
     if args.data:
         data = b"".join((v & 0xFFFFFFFF).to_bytes(4, "big") for v in args.data[: args.count])
@@ -266,7 +274,7 @@ def _run_access(client: Any, scan: Any, args: argparse.Namespace) -> int:
         raise CliError("ReadBlock Failed")
     words = [int.from_bytes(block[n : n + 4], "big") for n in range(0, len(block), 4)]
     if args.json:
-        print(json.dumps({"quadlets": words}))
+        print_json({"quadlets": words})
     else:
         for word in words:
             print(f"0x{word:08x}")
@@ -284,13 +292,13 @@ def _run_rt(client: Any, scan: Any, args: argparse.Namespace) -> int:
     try:
         loop = RealTimeLoop(client, scan, protocol)
     except MixedFirmwareError as error:
-        raise CliError(f"--protocol {args.protocol}: {error}") from None
+        raise MixedFirmwareError(f"--protocol {args.protocol}: {error}") from None
     # Everything the loop needs exists now and lives to the end: kept out of the
     # collector's sweeps, which each cycle's short-lived objects keep triggering.
     gc.freeze()
     report = measure(loop, args.cycles).as_dict()
     if args.json:
-        print(json.dumps(report))
+        print_json(report)
     else:
         print(
             f"{report['cycles']} cycles ({report['protocol']}, {report['boards']} boards): "

@@ -10,12 +10,11 @@ library is, for setting ``LD_LIBRARY_PATH`` by hand.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import shutil
 from typing import Any
 
-from fw1394.cli.common import CliError
+from fw1394.cli.common import CliError, print_json
 from fw1394.transport.sansio.config import DEFAULT_BUS
 
 RUN_EPILOG = """\
@@ -63,21 +62,14 @@ def register(subparsers: Any) -> None:
     library_parser.set_defaults(handler=library)
 
 
-def _library_path() -> str:
-    from fw1394.raw1394.build import BuildError, library_path
-
-    try:
-        return str(library_path())
-    except BuildError as error:
-        raise CliError(str(error)) from None
-
-
 def library(args: argparse.Namespace) -> int:
-    path = _library_path()
+    from fw1394.raw1394.build import library_path
+
+    path = str(library_path())
     if args.path:
         print(path)
     elif args.json:
-        print(json.dumps({"path": path, "directory": os.path.dirname(path)}))
+        print_json({"path": path, "directory": os.path.dirname(path)})
     else:
         print(f"libraw1394.so.11: {path}")
         print(f"use: LD_LIBRARY_PATH={os.path.dirname(path)} FW1394_BUS=NAME PROGRAM")
@@ -85,7 +77,6 @@ def library(args: argparse.Namespace) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    from fw1394.raw1394.build import BuildError
     from fw1394.raw1394.launch import ADAPTER_VARIABLE, environment
 
     command = list(args.command)
@@ -96,12 +87,7 @@ def run(args: argparse.Namespace) -> int:
     program = shutil.which(command[0])
     if program is None:
         raise CliError(f"no program {command[0]!r} on PATH")
-    try:
-        env = environment(args.name)
-    except BuildError as error:
-        raise CliError(str(error)) from None
-    except ValueError as error:  # a bus name the runtime directory refuses
-        raise CliError(str(error)) from None
+    env = environment(args.name)
     if not os.path.exists(env[ADAPTER_VARIABLE]):
         raise CliError(
             f"no host adapter for bus {args.name!r} on this machine "

@@ -25,11 +25,6 @@ from fw1394.cli import main as cli_main
 
 CLI = Path(fw1394.__file__).parent / "cli"
 
-#: Command modules other branches are still reworking (the fuzzer's commands,
-#: the JHU and libraw1394 ones): each re-wrap found in them is listed here by
-#: module, to be emptied as they land.
-NOT_YET: frozenset[str] = frozenset({"fuzz.py", "jhu.py", "raw1394.py"})
-
 
 def _imported_names(tree: ast.Module) -> dict[str, object]:
     """Every name an import statement of the module binds, anywhere in it."""
@@ -104,18 +99,8 @@ def rewraps(path: Path) -> list[str]:
 
 
 def test_no_command_rewraps_a_library_error_or_catches_everything() -> None:
-    offenders = [
-        line
-        for path in sorted(CLI.glob("*.py"))
-        if path.name not in NOT_YET
-        for line in rewraps(path)
-    ]
+    offenders = [line for path in sorted(CLI.glob("*.py")) for line in rewraps(path)]
     assert offenders == []
-
-
-@pytest.mark.parametrize("name", sorted(NOT_YET))
-def test_each_module_not_yet_checked_still_needs_it(name: str) -> None:
-    assert rewraps(CLI / name), f"{name} re-wraps nothing now: take it off NOT_YET"
 
 
 def test_the_check_finds_a_rewrap_a_catch_all_and_an_unknown(tmp_path: Path) -> None:

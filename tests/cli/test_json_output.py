@@ -21,9 +21,6 @@ from fw1394.cli.common import print_json
 
 CLI = Path(fw1394.__file__).parent / "cli"
 
-#: Command modules other branches are still reworking; emptied as they land.
-NOT_YET: frozenset[str] = frozenset({"fuzz.py", "jhu.py", "raw1394.py"})
-
 _PRINTED_DUMPS = re.compile(r"print\(\s*json\.dumps\(")
 
 
@@ -56,13 +53,8 @@ def test_no_command_prints_json_dumps_itself() -> None:
     offenders = [
         f"{path.name}:{number}"
         for path in sorted(CLI.glob("*.py"))
-        if path.name not in NOT_YET | {"common.py"}
+        if path.name != "common.py"
         for number, line in enumerate(path.read_text().splitlines(), 1)
         if _PRINTED_DUMPS.search(line)
     ]
     assert offenders == []
-
-
-@pytest.mark.parametrize("name", sorted(NOT_YET))
-def test_each_module_not_yet_moved_still_needs_it(name: str) -> None:
-    assert _PRINTED_DUMPS.search((CLI / name).read_text()), f"take {name} off NOT_YET"
