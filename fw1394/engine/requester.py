@@ -81,7 +81,7 @@ from fw1394.packets.layouts import TCODE_BYTE, TCODE_SHIFT
 from fw1394.packets.nodeid import BROADCAST_PHY, LOCAL_BASE, node_id, phy_of
 
 #: A waiting transaction's label is -1: its request carries 63 until it has one.
-_LABEL_MASK = 0x3F
+_LABEL_MASK = 0x3F  # not a node ID: tlabels are 6 bits too
 _OFFSET_LIMIT = 1 << 48
 _LENGTH_LIMIT = 1 << 16
 _ACK_COMPLETE = int(AckCode.ack_complete)

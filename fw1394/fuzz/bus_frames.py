@@ -15,7 +15,7 @@ from __future__ import annotations
 import random
 
 from fw1394.packets import QuadletReadRequest, QuadletWriteRequest, encode
-from fw1394.packets.nodeid import node_id
+from fw1394.packets.nodeid import BROADCAST_PHY, node_id
 from fw1394.transport.sansio.wire import (
     ACK_PAYLOAD,
     EVERY_MEMBER,
@@ -31,7 +31,6 @@ from fw1394.transport.sansio.wire import (
 )
 
 KINDS = tuple(FrameKind)
-_BROADCAST = 63
 
 
 def _member(rng: random.Random) -> MemberInfo:
@@ -64,7 +63,7 @@ def _shaped(kind: int, rng: random.Random) -> bytes:
         ack = ACK_PAYLOAD.pack(rng.randrange(256), rng.randrange(256), 0, rng.getrandbits(32))
         return ack + rng.randbytes(rng.choice((0, 0, 4, 16, 20, 24)))
     if kind == FrameKind.async_packet:
-        destination = node_id(rng.choice((0, 1, 2, _BROADCAST, rng.randrange(64))))
+        destination = node_id(rng.choice((0, 1, 2, BROADCAST_PHY, rng.randrange(64))))
         packet = (
             QuadletReadRequest(
                 destination_id=destination,
@@ -110,7 +109,7 @@ def hostile_frame(rng: random.Random, tag: int, generation: int) -> bytes:
         sender=rng.getrandbits(32),
         generation=near if rng.random() < 0.8 else rng.getrandbits(32),
         sender_phy=rng.choice((rng.randrange(64), 0xFF, rng.randrange(256))),
-        destination=rng.choice((0, 1, 2, _BROADCAST, EVERY_MEMBER, rng.randrange(256))),
+        destination=rng.choice((0, 1, 2, BROADCAST_PHY, EVERY_MEMBER, rng.randrange(256))),
         speed=rng.randrange(256),
         sequence=rng.getrandbits(32),
     )

@@ -41,6 +41,7 @@ from fw1394.fuzz.target import Target, TargetGone
 from fw1394.fuzz.targets import open_target, open_trial, target_kind
 from fw1394.fuzz.trial import Entry, Trial
 from fw1394.packets import AsyncPacket
+from fw1394.packets.nodeid import LOCAL_BUS, bus_of, is_broadcast, phy_of
 from fw1394.progress import Progress
 
 #: Cases between two looks at the clock and the progress bar.
@@ -475,8 +476,8 @@ def _addressed(packet: AsyncPacket | None, node_id: int) -> str:
     destination: int | None = getattr(packet, "destination_id", None)
     if destination is None:
         return "-"
-    if destination & 0x3F == 63:
+    if is_broadcast(destination):
         return "broadcast"
-    if destination & 0x3F != node_id & 0x3F:
+    if phy_of(destination) != phy_of(node_id):
         return "other-node"
-    return "ours" if destination >> 6 in (0x3FF, node_id >> 6) else "other-bus"
+    return "ours" if bus_of(destination) in (LOCAL_BUS, bus_of(node_id)) else "other-bus"

@@ -29,9 +29,10 @@ from fw1394.fuzz.target import Observation, Observed, TargetGone
 from fw1394.fuzz.trial import wire_of
 from fw1394.packets import AsyncPacket
 from fw1394.packets.asynchronous import encode_async
+from fw1394.packets.nodeid import node_id
 from fw1394.rtl.portmap import PortMapError, load
 
-NODE_ID = 0xFFC0
+NODE_ID = node_id(0)
 #: Cases per exchange with the simulator (fewer round trips; the same answers).
 BATCH = 32
 #: Simulated time between cases, seconds.

@@ -19,6 +19,7 @@ from pathlib import Path
 
 from fw1394.fuzz.contract import family
 from fw1394.fuzz.target import Observation, Observed, TargetCrash, TargetGone, Visibility, Wire
+from fw1394.packets.nodeid import phy_of
 from fw1394.rtl.defects import RTL_DEFECTS, define
 from fw1394.rtl.portmap import SPEED_NAMES, PortMap, PortMapError, load, split_spec
 from fw1394.rtl.refusal import explain, probe_waves
@@ -54,7 +55,7 @@ class RtlTarget:
         self.node_id = node_id
         self.description = f"rtl:{portmap.path.name} ({portmap.top})"
         self._options = {
-            "physical_id": node_id & 0x3F,
+            "physical_id": phy_of(node_id),
             "board_id": board_id,
             "defines": tuple(define(name) for name in sorted(defects & RTL_DEFECTS.keys())),
             "board_defects": tuple(sorted(defects - RTL_DEFECTS.keys())),

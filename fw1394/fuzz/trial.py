@@ -33,7 +33,8 @@ from fw1394.packets import (
     Request,
 )
 from fw1394.packets.fast import decode_sound, encode_packet
-from fw1394.packets.nodeid import BROADCAST_PHY
+from fw1394.packets.nodeid import BROADCAST_PHY, bus_of, phy_of
+from fw1394.packets.nodeid import node_id as node_id_of
 
 #: Bytes a read-back of a block write asks for at most.
 READBACK_LIMIT = 512
@@ -55,6 +56,8 @@ _DROPPED = frozenset(
 )
 #: Register accesses named in a side-effect finding, at most.
 _EFFECTS_NAMED = 4
+#: Transaction labels are 6 bits; ours count round them.
+_TLABEL_MASK = 0x3F  # not a node ID
 #: Writes remembered to name in a sweep finding, and named at most.
 _WRITES_KEPT = 64
 _WRITES_NAMED = 4
@@ -478,9 +481,9 @@ class Trial:
 
     # -- packets of our own ----------------------------------------------------------------
     def _next_tlabel(self) -> int:
-        self._tlabel = (self._tlabel + 1) & 0x3F
+        self._tlabel = (self._tlabel + 1) & _TLABEL_MASK
         if self._tlabel == self._avoid:
-            self._tlabel = (self._tlabel + 1) & 0x3F
+            self._tlabel = (self._tlabel + 1) & _TLABEL_MASK
         return self._tlabel
 
     def _read(self, offset: int, length: int | None = None, *, tlabel: int | None = None) -> Wire:
@@ -505,7 +508,7 @@ class Trial:
         """The next node ID but the target's (rotating over the 62 others)."""
         node = self.reference.node_id
         self._other = self._other % (BROADCAST_PHY - 1) + 1
-        return (node & ~0x3F) | ((node & 0x3F) + self._other) % BROADCAST_PHY
+        return node_id_of((phy_of(node) + self._other) % BROADCAST_PHY, bus_of(node))
 
     def _read_as(self, destination: int, offset: int) -> Wire:
         packet = QuadletReadRequest(

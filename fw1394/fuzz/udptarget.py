@@ -31,6 +31,7 @@ from fw1394.packets.eth1394 import (
     Eth1394Request,
     build_request,
 )
+from fw1394.packets.nodeid import phy_of
 from fw1394.transport.sansio.wire import (
     ACK_PAYLOAD,
     HEADER_SIZE,
@@ -124,7 +125,7 @@ class UdpTarget:
             sender=self._member,
             generation=0,
             sender_phy=HOST_PHY,
-            destination=self.node_id & 0x3F,
+            destination=phy_of(self.node_id),
             sequence=sequence,
         )
         return header.pack() + raw, sequence

@@ -43,6 +43,7 @@ from fw1394.packets.eth1394 import (
 )
 from fw1394.packets.eth1394_fast import extra_generation_and_echo, request_datagram
 from fw1394.packets.fast import encode_packet
+from fw1394.packets.nodeid import LOCAL_BASE
 from fw1394.transport.eth1394_addresses import (
     MULTICAST_FIRMWARE,
     Endpoint,
@@ -53,8 +54,8 @@ from fw1394.transport.eth1394_addresses import (
 
 #: The host's own node ID in every request: bus 0x3FF, node 16.
 HOST_SOURCE_ID = 0xFFD0
-LOCAL_BUS_IDS = 0xFFC0
-TL_MASK = 0x3F
+LOCAL_BUS_IDS = LOCAL_BASE
+TL_MASK = 0x3F  # not a node ID: tlabels are 6 bits too
 MAX_BOARDS = 16
 MAX_DATAGRAM = 65_535
 #: How many of the latest datagrams :attr:`EthUdpClient.sent` keeps.

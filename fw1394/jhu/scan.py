@@ -22,9 +22,11 @@ HUB_FLAGS = HostNodeFlag.NO_FORWARD | HostNodeFlag.ETH_BROADCAST
 IP_WRITE_PAUSE = 0.2
 PHY_REQUEST_PAUSE = 0.01
 #: Gap count for 1..24 nodes on one long chain; entry 0 is the power-up default.
-GAP_COUNTS = (63, 5, 7, 8, 10, 13, 16, 18, 21, 24, 26, 29, 32, 35, 37, 40, 43,
-              46, 48, 51, 54, 57, 59, 62, 63)  # fmt: skip
-DEFAULT_GAP_COUNT = 63
+DEFAULT_GAP_COUNT = 63  # not a node ID: the power-up and largest gap count
+GAP_COUNTS = (DEFAULT_GAP_COUNT, 5, 7, 8, 10, 13, 16, 18, 21, 24, 26, 29, 32, 35, 37, 40, 43,
+              46, 48, 51, 54, 57, 59, 62, DEFAULT_GAP_COUNT)  # fmt: skip
+#: PHY register 1's gap-count field (IEEE 1394a PHY register map).
+GAP_COUNT_MASK = 0x3F  # not a node ID
 PHY_READ = 1  # FW_PHY_REQ value: read PHY register 1
 PHY_WRITE_GAP = 0x1100  # FW_PHY_REQ: write (bit 12) PHY register 1 (bits 11..8)
 
@@ -221,7 +223,7 @@ def optimize_gap_count(client: EthUdpClient, nodes: int) -> int | None:
         response = client.read_quadlet_node(node, BoardRegister.FW_PHY_RESP)
         if response is None:
             return None
-        gaps.append(response & 0x3F)
+        gaps.append(response & GAP_COUNT_MASK)
     low, high = min(gaps, default=DEFAULT_GAP_COUNT), max(gaps, default=0)
     if low == high:
         client.say(f"OptimizeFirewireGapCount: current gap count is {low}")

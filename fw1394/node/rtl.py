@@ -19,6 +19,8 @@ from fw1394.engine import Reply
 from fw1394.node.process import BusRefusedError, Node, NodeOptions
 from fw1394.packets import PacketError
 from fw1394.packets.asynchronous import decode_async
+from fw1394.packets.nodeid import node_id as node_id_of
+from fw1394.packets.nodeid import phy_of
 from fw1394.rtl.portmap import load, split_spec
 from fw1394.rtl.simulation import Simulation, SimulationError
 from fw1394.transport.link import ResponderLink
@@ -48,8 +50,8 @@ class RtlResponder:
         return self._node_id
 
     def bus_reset(self, *, node_id: int, generation: int) -> None:
-        if node_id & 0x3F != self._node_id & 0x3F:
-            self.simulation.bus_reset(node_id & 0x3F)
+        if phy_of(node_id) != phy_of(self._node_id):
+            self.simulation.bus_reset(phy_of(node_id))
         self._node_id = node_id
 
     def receive(self, raw: bytes, now: float) -> Reply:
@@ -111,7 +113,7 @@ def run_rtl_node(
         if not simulation.acked:
             raise OSError(f"port map {portmap.path.name}: the design never acknowledged a read")
         node = Node(MemorySpace(4), options)  # answers come from the simulation
-        responder = RtlResponder(simulation, 0xFFC0)
+        responder = RtlResponder(simulation, node_id_of(0))  # the simulation starts as node 0
         responder.on_warning = on_warning
         node.link = RtlLink(responder, node.station, epoch=time.monotonic())
         node.link.on_drop = node._drop_response

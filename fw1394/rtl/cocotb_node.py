@@ -20,6 +20,7 @@ from cocotb.triggers import Timer
 from fw1394.boards.registry import make_board
 from fw1394.packets import QuadletReadRequest
 from fw1394.packets.asynchronous import encode_async
+from fw1394.packets.nodeid import node_id
 from fw1394.rtl.phy import BUS_REQUESTS, S400, Limits, Phy
 from fw1394.rtl.portmap import load
 from fw1394.rtl.regbus import RegisterServer
@@ -106,9 +107,9 @@ class Node:
         if not check:
             return True
         probe = QuadletReadRequest(
-            destination_id=0xFFC0 | config["physical_id"],
+            destination_id=node_id(config["physical_id"]),
             tlabel=0,
-            source_id=0xFFC1 if config["physical_id"] != 1 else 0xFFC2,
+            source_id=node_id(1 if config["physical_id"] != 1 else 2),
             offset=config.get("check_offset", 0),
         )
         reply = await phy.exchange(encode_async(probe))

@@ -57,6 +57,8 @@ REQUEST_BITS = {0: 4, 1: 4, 2: 4, 3: 4, 4: 5, 5: 13, 6: 2}
 BUS_REQUESTS = {0: "ImmReq", 1: "IsoReq", 2: "PriReq", 3: "FairReq"}
 #: A link granted the bus must start driving within this many cycles.
 GRANT_TIMEOUT = 8
+#: The gap count in this node's self-ID packet: the power-up value, the largest.
+SELF_ID_GAP_COUNT = 0x3F  # not a node ID
 #: The PHY drives the interface Idle (the word the model drives between events).
 ON_IDLE = 1 << 10
 #: What a run of the harness's runner waits for besides a cycle the model must see:
@@ -443,7 +445,13 @@ class Phy:
     async def bus_reset(self) -> None:
         """Status with S2 and register 0, then this node's self-ID packet."""
         await self.register_status(0, bus_reset=True)
-        self_id = (0b10 << 30) | (self.physical_id << 24) | (1 << 22) | (0x3F << 16) | (3 << 14)
+        self_id = (
+            (0b10 << 30)
+            | (self.physical_id << 24)
+            | (1 << 22)
+            | (SELF_ID_GAP_COUNT << 16)
+            | (3 << 14)
+        )
         await self.receive(self_id.to_bytes(4, "big") + (self_id ^ 0xFFFFFFFF).to_bytes(4, "big"))
 
     async def service(self) -> list[Capture]:

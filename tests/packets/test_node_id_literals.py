@@ -9,8 +9,7 @@ comments are prose) and lists who still does.
 
 A literal that means something else on its line (a tlabel or a gap count,
 whose largest value is also 63) says so with a ``# not a node ID`` comment.
-Board data (register maps of a board's own firmware) and the modules other
-branches are still moving onto the vocabulary are listed in ``ALLOWED``.
+Board data (register maps of a board's own firmware) is listed in ``ALLOWED``.
 """
 
 from __future__ import annotations
@@ -27,28 +26,12 @@ import fw1394
 ROOT = Path(fw1394.__file__).parent
 
 #: Modules (relative to fw1394/) that may still hold node-ID literals, with why.
-#: Shrink it as each lands on the names of fw1394.packets.nodeid.
 ALLOWED: dict[str, str] = {
     "packets/nodeid.py": "the vocabulary itself",
     # Board data: fields of a board's own registers that happen to be 6 bits wide.
     "boards/qla1/phy_window.py": "board data",
     "boards/qla1/rt_blocks.py": "board data",
     "boards/snake2010/global_io.py": "board data",
-    # Still on their owners' branches.
-    "jhu/client.py": "JHU host library",
-    "jhu/scan.py": "JHU host library",
-    "engine/requester.py": "engine",
-    "transport/media/shared_memory.py": "transport",
-    "transport/sansio/selfid.py": "transport",
-    "fuzz/bus_frames.py": "fuzz",
-    "fuzz/campaign.py": "fuzz",
-    "fuzz/trial.py": "fuzz",
-    "fuzz/udptarget.py": "fuzz",
-    "fuzz/rtl_differential.py": "RTL",
-    "fuzz/rtl_target.py": "RTL",
-    "node/rtl.py": "RTL",
-    "rtl/cocotb_node.py": "RTL",
-    "rtl/phy.py": "RTL",
 }
 
 _LOCAL_NODE_ID = re.compile(r"0x[fF]{2}[cC][0-9a-fA-F]$")

@@ -127,6 +127,8 @@ SEGMENT = Struct(
     "recoveries" / Int32un,  # locks taken back from writers that died holding them
     "retired" / Int64un,  # 0 while in use; else 1 + the head when the bus moved on
 )
+#: Random bits of a segment's incarnation: positive even where read as a signed 64-bit value.
+INCARNATION_BITS = 63  # not a node ID
 RECORD = Struct(
     "position" / Int64un,
     "stamp" / Int64un,  # the writer's time.time_ns() when it took the lock
@@ -325,7 +327,7 @@ class SharedMedium:
                         {
                             "magic": SEGMENT_MAGIC,
                             "head": 0,
-                            "incarnation": secrets.randbits(63),
+                            "incarnation": secrets.randbits(INCARNATION_BITS),
                             "owner": 0,
                             "recoveries": 0,
                             "retired": 0,
@@ -417,7 +419,7 @@ class SharedMedium:
             header = {
                 "magic": SEGMENT_MAGIC,
                 "head": 0,
-                "incarnation": secrets.randbits(63),
+                "incarnation": secrets.randbits(INCARNATION_BITS),
                 "owner": 0,
                 "recoveries": 0,
                 "retired": 0,

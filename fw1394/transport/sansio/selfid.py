@@ -15,7 +15,7 @@ from fw1394.packets.accessors import PHY_IDENTIFIER
 #: The identifier of self-ID packets (PHY packet bits 31-30).
 SELF_ID_IDENTIFIER = SelfIdPacket.SELECTOR["identifier"]
 #: The gap count every PHY uses after a reset until a PHY configuration packet says otherwise.
-DEFAULT_GAP_COUNT = 0x3F
+DEFAULT_GAP_COUNT = 0x3F  # not a node ID: the largest gap count
 
 
 def self_id_packet(
