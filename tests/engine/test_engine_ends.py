@@ -338,3 +338,31 @@ def test_ack_frames_end_transactions_as_the_table_says(
             for requester in requesters
         ]
         assert states[0] == states[1], step
+
+
+def test_a_write_acked_complete_with_a_response_behind_it_ends_both_as_the_table_says() -> None:
+    # A write's ack_complete with a sound response behind it (for a read of the same
+    # node still waiting for its ack): the one-pass end of a bare ack must not
+    # swallow the response, which the table's way takes.
+    requesters = _hosts(0.5)
+    node = node_id(2)
+    for requester in requesters:
+        requester.write_quadlet(node, 0, 7, NOW)
+        requester.read_quadlet(node, 4, NOW)
+    sent = [requester.packets_to_send() for requester in requesters]
+    write, read = sent[1]
+    assert isinstance(write, QuadletWriteRequest) and isinstance(read, QuadletReadRequest)
+    response = QuadletReadResponse(
+        destination_id=node_id(HOST), tlabel=read.tlabel, source_id=node, quadlet_data=9
+    )
+    ack = ACK_FRAME_FORMAT.pack(ACK_BYTES[AckCode.ack_complete], write.tlabel, 0, 1)
+    payload = ack + encode_packet(response)
+    labels = (
+        requesters[0].take_ack_frame(2, payload, NOW),
+        _by_the_table(requesters[1], 2, payload, NOW),
+    )
+    assert labels[0] == labels[1]
+    events = [requester.events() for requester in requesters]
+    assert events[0] == events[1]
+    # The table ends the write and sees the response (early: its read has no ack yet).
+    assert [type(event).__name__ for event in events[1]] == ["WriteCompleted", "UnexpectedResponse"]
