@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from fw1394.capture.views.trace_plots import PlotError, require_matplotlib
+from fw1394.capture.views.trace_plots import PlotError, require_matplotlib, save_figure
 from fw1394.experiments import thesis
 from fw1394.experiments.bands import find_bands
 from fw1394.experiments.measurements import BlockRun, QuadletRun, ScalePoint
@@ -238,11 +238,5 @@ def _ceiling(values: np.ndarray) -> float:
 
 
 def _save(pyplot: Any, figure: Any, path: Path) -> Path:
-    try:
-        figure.tight_layout()
-        figure.savefig(path, dpi=DPI)
-    except OSError as error:
-        raise PlotError(f"cannot write {path}: {error.strerror or error}") from None
-    finally:
-        pyplot.close(figure)
+    save_figure(pyplot, figure, path, dpi=DPI)
     return path

@@ -48,7 +48,7 @@ DESIGNS = {
 }
 
 
-def _session(spec: str, defects: tuple[str, ...], *, every_cycle: bool) -> list[dict[str, Any]]:
+def _simulated_run(spec: str, defects: tuple[str, ...], *, every_cycle: bool) -> list[dict[str, Any]]:
     generator = Generator(0xFFC0, offset_model("snake2010"), random.Random(7))
     sim = Simulation(
         load(spec),
@@ -77,10 +77,10 @@ def _session(spec: str, defects: tuple[str, ...], *, every_cycle: bool) -> list[
 @pytest.mark.parametrize("design", DESIGNS)
 def test_the_runner_answers_as_stepping_every_cycle_does(design: str) -> None:
     spec, defects = DESIGNS[design]
-    fast = _session(spec, defects, every_cycle=False)
-    stepped = _session(spec, defects, every_cycle=True)
+    fast = _simulated_run(spec, defects, every_cycle=False)
+    stepped = _simulated_run(spec, defects, every_cycle=True)
     assert fast == stepped
-    # The sessions did something worth comparing: answers, and for the planted
+    # The runs did something worth comparing: answers, and for the planted
     # defects, broken rules.
     assert any(ack is not None for answer in fast for ack, _, _ in answer["replies"])
     if defects:

@@ -5,6 +5,7 @@ matplotlib is optional; :func:`require_matplotlib` says so in one line.
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -58,7 +59,7 @@ def plot_latency(stats: Stats, path: str, title: str) -> int:
     """Histogram of transaction times (microseconds); returns how many were drawn."""
     pyplot = require_matplotlib()
     figure = latency_figure(pyplot, stats.sample.latency / 1000, stats.sample.seen, title)
-    _save(figure, path, pyplot)
+    save_figure(pyplot, figure, path)
     return len(stats.sample.latency)
 
 
@@ -126,14 +127,16 @@ def plot_size(stats: Stats, path: str, title: str) -> int:
     axes.set_title(f"{title}: time against size")
     if len(sample.tcode):
         axes.legend(markerscale=3)
-    _save(figure, path, pyplot)
+    save_figure(pyplot, figure, path)
     return len(sample.latency)
 
 
-def _save(figure: Any, path: str, pyplot: Any) -> None:
+def save_figure(pyplot: Any, figure: Any, path: str | Path, *, dpi: int = 120) -> None:
+    """Write ``figure`` to ``path`` and close it; a path matplotlib cannot write is a
+    :class:`PlotError` (one line for the CLI)."""
     try:
         figure.tight_layout()
-        figure.savefig(path, dpi=120)
+        figure.savefig(path, dpi=dpi)
     except OSError as error:
         raise PlotError(f"cannot write {path}: {error.strerror or error}") from None
     except ValueError as error:  # a format matplotlib knows but cannot write here
