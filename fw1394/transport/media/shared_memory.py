@@ -234,6 +234,22 @@ def _align(size: int) -> int:
     return (size + 7) & ~7
 
 
+
+def _fresh_header() -> bytes:
+    """A new segment's header: an empty ring, no owner, a new incarnation."""
+    return bytes(
+        SEGMENT.build(
+            {
+                "magic": SEGMENT_MAGIC,
+                "head": 0,
+                "incarnation": secrets.randbits(INCARNATION_BITS),
+                "owner": 0,
+                "recoveries": 0,
+                "retired": 0,
+            }
+        )
+    )
+
 class SharedMedium:
     """The bus as a ring in shared memory, with the same calls as the UDP medium.
 
@@ -323,17 +339,7 @@ class SharedMedium:
                     # New, or of another layout: start it afresh.
                     os.ftruncate(fd, 0)
                     os.ftruncate(fd, SEGMENT_SIZE)
-                    header = SEGMENT.build(
-                        {
-                            "magic": SEGMENT_MAGIC,
-                            "head": 0,
-                            "incarnation": secrets.randbits(INCARNATION_BITS),
-                            "owner": 0,
-                            "recoveries": 0,
-                            "retired": 0,
-                        }
-                    )
-                    os.pwrite(fd, header, 0)
+                    os.pwrite(fd, _fresh_header(), 0)
         except BaseException:
             os.close(fd)
             raise
@@ -416,15 +422,7 @@ class SharedMedium:
         fd = os.open(fresh, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o600)
         try:
             os.ftruncate(fd, SEGMENT_SIZE)
-            header = {
-                "magic": SEGMENT_MAGIC,
-                "head": 0,
-                "incarnation": secrets.randbits(INCARNATION_BITS),
-                "owner": 0,
-                "recoveries": 0,
-                "retired": 0,
-            }
-            os.pwrite(fd, SEGMENT.build(header), 0)
+            os.pwrite(fd, _fresh_header(), 0)
         finally:
             os.close(fd)
         os.rename(fresh, self.path)
