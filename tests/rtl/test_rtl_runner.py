@@ -48,7 +48,9 @@ DESIGNS = {
 }
 
 
-def _simulated_run(spec: str, defects: tuple[str, ...], *, every_cycle: bool) -> list[dict[str, Any]]:
+def _simulated_run(
+    spec: str, defects: tuple[str, ...], *, every_cycle: bool
+) -> list[dict[str, Any]]:
     generator = Generator(0xFFC0, offset_model("snake2010"), random.Random(7))
     sim = Simulation(
         load(spec),
