@@ -123,7 +123,7 @@ def test_the_cli_turns_any_library_error_into_one_line_and_status_2(
         raise error
 
     args.handler = failing
-    monkeypatch.setattr(cli_main, "build_parser", lambda: _Fixed(parser, args))
+    monkeypatch.setattr(cli_main, "build_parser", lambda _command=None: _Fixed(parser, args))
     assert cli_main.main(["decode", "00"]) == 2
     captured = capsys.readouterr()
     assert captured.out == ""

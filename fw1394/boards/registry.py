@@ -17,7 +17,6 @@ from fw1394.boards.memory.regmap import DEFAULT_SIZE as MEMORY_MAP_SIZE
 from fw1394.boards.memory.regmap import REGISTER_MAP as MEMORY_MAP
 from fw1394.boards.qla1.board import BOARD_DEFECTS as QLA1_DEFECTS
 from fw1394.boards.qla1.board import Qla1Board
-from fw1394.boards.qla1.busnode import QLA1_NODE
 from fw1394.boards.qla1.regmap import REGISTER_MAP as QLA1_MAP
 from fw1394.boards.regmap import RegisterMap
 from fw1394.boards.snake2010.board import BOARD_DEFECTS as SNAKE2010_DEFECTS
@@ -75,6 +74,24 @@ class BoardKind:
     registers: RegisterMap | None = None
 
 
+class _Qla1Program:
+    """The qla1 node program, imported when a qla1 node starts or is checked.
+
+    Its module brings the board's whole Ethernet stack; every other user of the
+    registry (a snake2010 node, the command line's parser) goes without it.
+    """
+
+    def check(self, *, eth1394: str | None, firmware: int) -> None:
+        from fw1394.boards.qla1.busnode import QLA1_NODE
+
+        QLA1_NODE.check(eth1394=eth1394, firmware=firmware)
+
+    def run(self, **options: Any) -> None:
+        from fw1394.boards.qla1.busnode import QLA1_NODE
+
+        QLA1_NODE.run(**options)
+
+
 def _memory(board_id: int = 0, size: int = MEMORY_MAP_SIZE, **_: Any) -> AddressSpace:
     return MemorySpace(size, board_id=board_id)
 
@@ -103,7 +120,7 @@ BOARDS: dict[str, BoardKind] = {
             policy="jhu",
             defects=QLA1_DEFECTS,
             ethernet=True,
-            node_program=QLA1_NODE,
+            node_program=_Qla1Program(),
             registers=QLA1_MAP,
         ),
         BoardKind(

@@ -69,7 +69,43 @@ class SubcommandParser(OneLineParser):
         return parsed, extras
 
 
-def build_parser() -> argparse.ArgumentParser:
+#: The module of this package that registers each command. Running one command
+#: builds only that module's parsers, so it imports only what that command
+#: needs (``dissect`` alone pulls in numpy); ``--help``, ``--version`` and a
+#: word that names no command build them all. A test holds this table to what
+#: the modules register.
+COMMANDS = {
+    "bench": "bench",
+    "bus": "bus",
+    "capture": "capture",
+    "decode": "codec",
+    "demo": "demo",
+    "dissect": "dissect",
+    "encode": "codec",
+    "fuzz": "fuzz",
+    "jhu": "jhu",
+    "libraw1394": "raw1394",
+    "lock": "host",
+    "lsnodes": "lsnodes",
+    "node": "bus",
+    "read": "host",
+    "run": "raw1394",
+    "send": "send",
+    "watch": "watch",
+    "wireshark-dissector": "wireshark",
+    "write": "host",
+}
+
+
+def command_modules() -> list[str]:
+    """Every module of this package that may register commands, in name order."""
+    package = importlib.import_module("fw1394.cli")
+    names = (info.name for info in pkgutil.iter_modules(package.__path__))
+    return sorted(name for name in names if name not in ("main", "common"))
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The ``fw1394`` parser: with every command, or only the module that registers ``command``."""
     parser = OneLineParser(
         prog="fw1394",
         description=DESCRIPTION,
@@ -77,11 +113,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"fw1394 {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
-    package = importlib.import_module("fw1394.cli")
-    for module_info in sorted(pkgutil.iter_modules(package.__path__), key=lambda m: m.name):
-        if module_info.name in ("main", "common"):
-            continue
-        module = importlib.import_module(f"fw1394.cli.{module_info.name}")
+    home = COMMANDS.get(command or "")
+    for name in [home] if home else command_modules():
+        module = importlib.import_module(f"fw1394.cli.{name}")
         register = getattr(module, "register", None)
         if register is not None:
             register(subparsers)
@@ -89,10 +123,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
+    words = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(words[0] if words else None)
     try:
         with reported_write_errors():
-            args = parser.parse_args(argv)
+            args = parser.parse_args(words)
             if args.command is None:
                 parser.print_help()
                 return 0

@@ -6,6 +6,21 @@ all eleven axes through the host API (:mod:`fw1394.host`) with a PD position
 loop, and returns what happened; it stops every process it started.
 """
 
-from fw1394.demo.run import DemoResult, run_demo
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from fw1394._lazy import exports
+
+# Public name -> the module that defines it, imported on first use.
+_HOMES = {
+    "DemoResult": "fw1394.demo.run",
+    "run_demo": "fw1394.demo.run",
+}
 
 __all__ = ["DemoResult", "run_demo"]
+
+__getattr__, __dir__ = exports(__name__, globals(), _HOMES)
+
+if TYPE_CHECKING:
+    from fw1394.demo.run import DemoResult, run_demo

@@ -8,7 +8,24 @@ package data) only marshals calls to the adapter's protocol; :mod:`.build`
 compiles it on first use, :mod:`.launch` runs a program with it in place.
 """
 
-from fw1394.raw1394.build import SONAME, BuildError, library_path
-from fw1394.raw1394.launch import environment
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from fw1394._lazy import exports
+
+# Public name -> the module that defines it, imported on first use.
+_HOMES = {
+    "SONAME": "fw1394.raw1394.build",
+    "BuildError": "fw1394.raw1394.build",
+    "library_path": "fw1394.raw1394.build",
+    "environment": "fw1394.raw1394.launch",
+}
 
 __all__ = ["SONAME", "BuildError", "environment", "library_path"]
+
+__getattr__, __dir__ = exports(__name__, globals(), _HOMES)
+
+if TYPE_CHECKING:
+    from fw1394.raw1394.build import SONAME, BuildError, library_path
+    from fw1394.raw1394.launch import environment

@@ -26,11 +26,24 @@ the Eth1394 world's addresses and UDP port checks (:mod:`~fw1394.transport.eth13
 
 from __future__ import annotations
 
-from fw1394.transport.bus_host import BusError, BusHost, StaleGenerationError, TransactionTimeout
-from fw1394.transport.eth1394_addresses import Endpoint
-from fw1394.transport.host_adapter.protocol import Op
-from fw1394.transport.sansio.config import BusConfig, BusNameError
-from fw1394.transport.supervision.launch import AlreadyUpError, LaunchedBus, LaunchError
+from typing import TYPE_CHECKING
+
+from fw1394._lazy import exports
+
+# Public name -> the module that defines it, imported on first use.
+_HOMES = {
+    "BusError": "fw1394.transport.bus_host",
+    "BusHost": "fw1394.transport.bus_host",
+    "StaleGenerationError": "fw1394.transport.bus_host",
+    "TransactionTimeout": "fw1394.transport.bus_host",
+    "Endpoint": "fw1394.transport.eth1394_addresses",
+    "Op": "fw1394.transport.host_adapter.protocol",
+    "BusConfig": "fw1394.transport.sansio.config",
+    "BusNameError": "fw1394.transport.sansio.config",
+    "AlreadyUpError": "fw1394.transport.supervision.launch",
+    "LaunchedBus": "fw1394.transport.supervision.launch",
+    "LaunchError": "fw1394.transport.supervision.launch",
+}
 
 __all__ = [
     "AlreadyUpError",
@@ -46,3 +59,16 @@ __all__ = [
     "TransactionTimeout",
 ]
 
+__getattr__, __dir__ = exports(__name__, globals(), _HOMES)
+
+if TYPE_CHECKING:
+    from fw1394.transport.bus_host import (
+        BusError,
+        BusHost,
+        StaleGenerationError,
+        TransactionTimeout,
+    )
+    from fw1394.transport.eth1394_addresses import Endpoint
+    from fw1394.transport.host_adapter.protocol import Op
+    from fw1394.transport.sansio.config import BusConfig, BusNameError
+    from fw1394.transport.supervision.launch import AlreadyUpError, LaunchedBus, LaunchError

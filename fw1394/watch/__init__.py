@@ -11,11 +11,30 @@ Figure 19). Layers, each usable without the next:
 * :mod:`~fw1394.watch.screen` and :mod:`~fw1394.watch.live`: the curses loop.
 """
 
-from fw1394.watch.controls import Action, Command, Controller, command_for_key
-from fw1394.watch.conversions import Conversions
-from fw1394.watch.readings import BoardReading, ChannelReading, StatusBits, decode_status
-from fw1394.watch.sampler import WatchedBoard
-from fw1394.watch.view import BoardPanel, Line, Style, reading_dict, view_lines
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from fw1394._lazy import exports
+
+# Public name -> the module that defines it, imported on first use.
+_HOMES = {
+    "Action": "fw1394.watch.controls",
+    "Command": "fw1394.watch.controls",
+    "Controller": "fw1394.watch.controls",
+    "command_for_key": "fw1394.watch.controls",
+    "Conversions": "fw1394.watch.conversions",
+    "BoardReading": "fw1394.watch.readings",
+    "ChannelReading": "fw1394.watch.readings",
+    "StatusBits": "fw1394.watch.readings",
+    "decode_status": "fw1394.watch.readings",
+    "WatchedBoard": "fw1394.watch.sampler",
+    "BoardPanel": "fw1394.watch.view",
+    "Line": "fw1394.watch.view",
+    "Style": "fw1394.watch.view",
+    "reading_dict": "fw1394.watch.view",
+    "view_lines": "fw1394.watch.view",
+}
 
 __all__ = [
     "Action",
@@ -34,3 +53,12 @@ __all__ = [
     "reading_dict",
     "view_lines",
 ]
+
+__getattr__, __dir__ = exports(__name__, globals(), _HOMES)
+
+if TYPE_CHECKING:
+    from fw1394.watch.controls import Action, Command, Controller, command_for_key
+    from fw1394.watch.conversions import Conversions
+    from fw1394.watch.readings import BoardReading, ChannelReading, StatusBits, decode_status
+    from fw1394.watch.sampler import WatchedBoard
+    from fw1394.watch.view import BoardPanel, Line, Style, reading_dict, view_lines

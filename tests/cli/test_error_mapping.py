@@ -161,7 +161,7 @@ def test_an_os_error_reaching_main_is_one_line_and_status_2(
 
     args.handler = failing
     monkeypatch.setattr(parser, "parse_args", lambda _argv: args)
-    monkeypatch.setattr(cli_main, "build_parser", lambda: parser)
+    monkeypatch.setattr(cli_main, "build_parser", lambda _command=None: parser)
     assert cli_main.main(["decode", "00"]) == 2
     captured = capsys.readouterr()
     assert (captured.out, captured.err) == ("", line + "\n")
