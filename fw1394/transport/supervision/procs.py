@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import os
 import signal
 import zlib
@@ -50,10 +49,9 @@ def die_with_parent(parent_pid: int, sig: int = signal.SIGTERM) -> None:
     Checked against ``parent_pid`` afterwards: a parent that died before the
     call has already handed us to init, and then we must go now.
     """
-    libc_name = ctypes.util.find_library("c")
-    if libc_name is None:
-        return
-    libc = ctypes.CDLL(libc_name, use_errno=True)
+    # The running program's own symbols include the C library's: no search
+    # (ctypes.util.find_library runs ldconfig in a process of its own).
+    libc = ctypes.CDLL(None, use_errno=True)
     libc.prctl(PR_SET_PDEATHSIG, sig, 0, 0, 0)
     if os.getppid() != parent_pid:
         os.kill(os.getpid(), sig)
