@@ -46,6 +46,12 @@ PENDING, COMPLETE = AckCode.ack_pending, AckCode.ack_complete
 #: copy of that answer may trail it is two trips and an answer.
 DELAYS = (0.0, 0.0005, 0.004, 0.025)
 ANSWER_TIMES = (0.0, 0.003, 0.050)
+# Built once: a strategy made anew for every draw is validated and labelled anew,
+# which was most of this test's time.
+COPIES_OF = st.sampled_from([0, 1, 1, 1, 2, 3])
+DELAY_OF = st.sampled_from(DELAYS)
+ANSWER_TIME_OF = st.sampled_from(ANSWER_TIMES)
+QUADLET_OF = st.integers(0, QUADLETS - 1)
 
 
 def value_at(quadlet: int) -> int:
@@ -75,9 +81,9 @@ class Medium:
         self.order = itertools.count()
 
     def send(self, now: float, kind: str, item: object, answer_time: float = 0.0) -> None:
-        copies = self.draw.draw(st.sampled_from([0, 1, 1, 1, 2, 3]), label=f"{kind} copies")
+        copies = self.draw.draw(COPIES_OF, label=f"{kind} copies")
         for _ in range(copies):
-            delay = self.draw.draw(st.sampled_from(DELAYS), label=f"{kind} delay")
+            delay = self.draw.draw(DELAY_OF, label=f"{kind} delay")
             when = now + answer_time + delay
             heapq.heappush(self.queue, Arrival(when, next(self.order), kind, item))
 
@@ -97,7 +103,7 @@ class Bench:
 
     def start_reads(self, count: int) -> None:
         for _ in range(count):
-            quadlet = self.draw.draw(st.integers(0, QUADLETS - 1), label="quadlet")
+            quadlet = self.draw.draw(QUADLET_OF, label="quadlet")
             self.read_of[self.requester.read_quadlet(NODE, 4 * quadlet, self.now)] = quadlet
         self.flush()
 
@@ -149,7 +155,7 @@ class Bench:
             if reply.response is not None:
                 answer = 0.0
                 if not reply.concatenated:
-                    answer = self.draw.draw(st.sampled_from(ANSWER_TIMES), label="answer time")
+                    answer = self.draw.draw(ANSWER_TIME_OF, label="answer time")
                 self.medium.send(self.now, "response", reply.response, answer)
         elif arrival.kind == "ack":
             label, code = cast(tuple[int, int], arrival.item)
