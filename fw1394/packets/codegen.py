@@ -6,6 +6,10 @@ is compiled here under a file name of its own and its source is registered in
 :mod:`linecache`, so a traceback, ``pdb`` and ``inspect.getsource`` show the
 generated line that ran instead of ``File "<string>", line 1``. Nothing else
 in the package calls ``exec`` or ``eval`` (a test holds that).
+
+A text is compiled once: every responder generates its common turns, and the
+same policy gives the same text, so later ones take a copy of the compiled code
+under a file name of their own.
 """
 
 from __future__ import annotations
@@ -13,10 +17,13 @@ from __future__ import annotations
 import itertools
 import linecache
 from collections.abc import Callable, Iterable
+from types import CodeType
 from typing import Any
 
 #: Numbers the generated files: two functions made from the same text stay apart.
 _serial = itertools.count(1)
+#: Each text's code, compiled once.
+_compiled: dict[str, CodeType] = {}
 
 
 def generated_filename(origin: str) -> str:
@@ -35,12 +42,25 @@ def compile_function(
     """
     text = source if isinstance(source, str) else "\n".join(source) + "\n"
     filename = generated_filename(origin)
-    code = compile(text, filename, "exec")
+    code = _compiled.get(text)
+    if code is None:
+        code = _compiled[text] = compile(text, filename, "exec")
+    else:
+        code = _renamed(code, filename)
     # mtime None: linecache.checkcache keeps the entry (there is no file to recheck).
     linecache.cache[filename] = (len(text), None, text.splitlines(keepends=True), filename)
     exec(code, namespace)
     function: Callable[..., Any] = namespace[name]
     return function
+
+
+def _renamed(code: CodeType, filename: str) -> CodeType:
+    """``code`` and the functions it defines, as if compiled under ``filename``."""
+    constants = tuple(
+        _renamed(item, filename) if isinstance(item, CodeType) else item
+        for item in code.co_consts
+    )
+    return code.replace(co_filename=filename, co_consts=constants)
 
 
 __all__ = ["compile_function", "generated_filename"]
