@@ -88,6 +88,7 @@ PLAN: dict[str, tuple[str, ...]] = {
         "tests/capture/test_foreign_files.py",
         "tests/capture/test_robustness_captures.py",
         "tests/capture/test_pcapng_options_edges.py",
+        "tests/capture/test_capture_formats_edges.py",
     ),
     "fw1394/fuzz/judge.py": (
         "tests/fuzz/test_fuzz_oracles.py",

@@ -1,0 +1,178 @@
+"""Capture readers and the trace writer at the edges the common files never reach.
+
+Every file and line here is written from its format's documentation, not by
+fw1394's writer: pcapng blocks (including the obsolete Packet Block, type 2) and
+classic pcap records from the libpcap file-format description, firewire
+tracepoint lines as ``include/trace/events/firewire.h`` prints them, Eth1394
+datagrams from the JHU layout (request = control word + packet, response =
+packet + 8 extra bytes), and the pseudo-header's flags from
+``docs/capture-format.md``.
+"""
+
+from __future__ import annotations
+
+import io
+import struct
+from collections.abc import Iterator
+from typing import TextIO, cast
+
+from fw1394.capture.formats import containers, kernel
+from fw1394.capture.formats import eth1394_udp as udp
+from fw1394.capture.formats.record import BusRecord, Direction, RecordType
+from fw1394.capture.formats.trace_writer import record_bytes
+
+# -- pcapng: the obsolete Packet Block among Enhanced Packet Blocks ---------------------------
+
+
+def _pad(data: bytes) -> bytes:
+    return data + bytes(-len(data) % 4)
+
+
+def _pcapng_block(block_type: int, body: bytes) -> bytes:
+    length = 12 + len(body)
+    return struct.pack("<II", block_type, length) + body + struct.pack("<I", length)
+
+
+def _enhanced(stamp: int, data: bytes) -> bytes:
+    head = struct.pack("<IIIII", 0, stamp >> 32, stamp & 0xFFFFFFFF, len(data), len(data))
+    return _pcapng_block(6, head + _pad(data))
+
+
+def _obsolete(stamp: int, data: bytes, original: int) -> bytes:
+    # Interface ID and drops count are 16 bits each in the obsolete Packet Block.
+    head = struct.pack("<HHIIII", 0, 0, stamp >> 32, stamp & 0xFFFFFFFF, len(data), original)
+    return _pcapng_block(2, head + _pad(data))
+
+
+def test_obsolete_packet_blocks_keep_their_file_position_and_order_across_chunks() -> None:
+    section = _pcapng_block(0x0A0D0D0A, struct.pack("<IHHq", 0x1A2B3C4D, 1, 0, -1))
+    interface = _pcapng_block(1, struct.pack("<HHI", 147, 0, 0))  # no if_tsresol: microseconds
+    packets = [
+        ("epb", 1_000, bytes(range(4))),
+        ("pb", 2_000, bytes(range(10, 22))),
+        ("epb", 3_000, bytes(range(30, 35))),
+        ("pb", 4_000, bytes(range(40, 48))),
+        ("pb", 5_000, bytes(range(50, 51))),
+    ]
+    content, expected = section + interface, []
+    for kind, stamp, data in packets:
+        expected.append((len(content), stamp * 1_000, data))
+        content += _enhanced(stamp, data) if kind == "epb" else _obsolete(stamp, data, 1500)
+    # Chunks far smaller than the file: most blocks lie in chunks that start past byte 0.
+    found = []
+    for chunk in containers.read_chunks(io.BytesIO(content), chunk_size=48):
+        assert chunk.issues == []
+        found += [
+            (int(chunk.position[i]), int(chunk.ts_ns[i]), chunk.packet(i))
+            for i in range(len(chunk))
+        ]
+    assert found == expected
+
+
+# -- classic pcap: resynchronising after a damaged record header ------------------------------
+
+
+def _pcap_record(seconds: int, micros: int, data: bytes, original: int) -> bytes:
+    return struct.pack("<IIII", seconds, micros, len(data), original) + data
+
+
+def test_pcap_resynchronises_on_long_and_snapped_records_running_to_the_end() -> None:
+    header = struct.pack("<IHHiIII", 0xA1B2C3D4, 2, 4, 0, 0, 65535, 147)
+    first = _pcap_record(1_700_000_000, 1, b"\x11" * 12, 12)
+    # A record header whose captured length is beyond the snapshot length: damage.
+    damage = b"\xff" * 16
+    long = _pcap_record(1_700_000_000, 2, bytes(range(256)) + bytes(44), 300)  # 300 of 300 bytes
+    snapped = _pcap_record(1_700_000_000, 3, b"\x22" * 60, 1000)  # 60 of 1000 bytes kept
+    content = header + first + damage + long + snapped
+    chunks = list(containers.read_chunks(io.BytesIO(content)))
+    positions = [int(p) for chunk in chunks for p in chunk.position]
+    data = [chunk.packet(i) for chunk in chunks for i in range(len(chunk))]
+    issues = [issue for chunk in chunks for issue in chunk.issues]
+    at = len(header)
+    assert positions == [at, at + len(first) + 16, at + len(first) + 16 + len(long)]
+    assert data == [b"\x11" * 12, long[16:], b"\x22" * 60]
+    assert [issue.position for issue in issues] == [at + len(first)]
+    assert "implausible" in issues[0].message
+
+
+# -- Eth1394 UDP: a payload both readings accept ----------------------------------------------
+
+
+def test_a_response_that_also_reads_as_a_request_is_told_by_its_size() -> None:
+    # Quadlet read response (tcode 6) from node 0x0005 (bus 0, physical ID 5) to 0xFFD0,
+    # tl 7, data 'QLA1', zero CRC as the FPGA's Ethernet path sends, then 8 extra bytes.
+    response = struct.pack(">5I", 0xFFD01C60, 0x00050000, 0, 0x514C4131, 0)
+    payload = response + bytes.fromhex("10050000006400c8")
+    # Read as a request, the bytes after the 2-byte control word start with tcode 0
+    # (the low byte of the source ID): a quadlet write request, 26 bytes for its 20.
+    assert payload[2 + 3] >> 4 == 0
+    assert udp.classify(payload) == "response"
+    # Neither reading adds up (the response is cut short): the request reading wins.
+    cut = payload[:16] + payload[-8:]
+    assert udp.classify(cut) == "request"
+
+
+# -- kernel text: only outbound initiates wait for their completion ---------------------------
+
+
+_INBOUND = (
+    "<idle>-0 [002] d.h2. 2107.432895: async_request_inbound: "
+    "transaction=0xffff8ee1c9a07f00 card_index=0 generation=3 scode=2 status=2 timestamp=0x3c62 "
+    "dst_id=0xffc1 tlabel=10 tcode=4 src_id=0xffc0 offset=0xfffff0000200 "
+    "header={0xffc12940,0xffc0ffff,0xf0000200,0x0} data={}\n"
+)
+_RESPONSE = (
+    "kworker/2:3-125 [002] ..... 2107.432907: async_response_outbound_initiate: "
+    "transaction=0xffff8ee1c9a07f00 card_index=0 generation=3 scode=2 dst_id=0xffc0 tlabel=10 "
+    "tcode=6 src_id=0xffc1 rcode=0 header={0xffc02960,0xffc10000,0x0,0x105c2a} data={}\n"
+)
+_COMPLETE = (
+    "<idle>-0 [002] d.h2. 2107.432916: async_response_outbound_complete: "
+    "transaction=0xffff8ee1c9a07f00 card_index=0 generation=3 scode=2 status=1 timestamp=0x3c6c\n"
+)
+
+
+def test_an_inbound_request_is_delivered_at_its_own_line_and_the_response_waits_for_its_ack() -> (
+    None
+):
+    taken: list[str] = []
+
+    def lines() -> Iterator[str]:  # kernel text that counts the lines taken from it
+        for line in (_INBOUND, _RESPONSE, _COMPLETE):
+            taken.append(line)
+            yield line
+
+    batches = kernel.KernelTextReader(cast(TextIO, lines())).batches(batch_records=1)
+    first = next(batches)
+    # The inbound request carries its ack (status=2, ack_pending) on its own line and
+    # shares its transaction with the response: it must not wait for that response.
+    assert len(taken) == 1
+    (request,) = [first.record(i) for i in range(len(first))]
+    assert request.direction == Direction.inbound and request.ack == 2
+    assert request.data[3] >> 4 == 4  # tcode 4: quadlet read request
+    second = next(batches)
+    assert len(taken) == 3  # the response came out with its completion line
+    (response,) = [second.record(i) for i in range(len(second))]
+    assert response.direction == Direction.outbound and response.ack == 1  # ack_complete
+    assert response.data[3] >> 4 == 6
+    assert list(batches) == []
+
+
+# -- the trace writer: a PHY packet's check quadlet -------------------------------------------
+
+_CRC_PRESENT, _CRC_VALID = 0x0001, 0x0002  # docs/capture-format.md, flags word at offset 4
+
+
+def _phy_flags(quadlet: int, check: int) -> tuple[int, int]:
+    record = BusRecord(1_000, RecordType.phy_packet, struct.pack(">II", quadlet, check))
+    written = record_bytes(record)
+    assert written[12:] == struct.pack(">II", quadlet, check)
+    record_type, _, flags = struct.unpack_from(">BBH", written, 2)
+    return record_type, flags & (_CRC_PRESENT | _CRC_VALID)
+
+
+def test_a_phy_packet_with_its_inverse_is_written_as_checked_and_sound() -> None:
+    # A PHY configuration packet (root 1, gap count 63) and its bitwise inverse.
+    assert _phy_flags(0x01BF0000, 0xFE40FFFF) == (2, _CRC_PRESENT | _CRC_VALID)
+    assert _phy_flags(0x01BF0000, 0xFE40FFFE) == (2, _CRC_PRESENT)
+    assert _phy_flags(0x01BF0000, 0x01BF0000) == (2, _CRC_PRESENT)
