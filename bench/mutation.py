@@ -375,7 +375,18 @@ def test_mutant(item: WorkItem, runs: list[tuple[list[str], float]]) -> tuple[st
     operator = get_operator(spec.operator_name)(**spec.operator_args)
     compiled = Path(importlib.util.cache_from_source(str(ROOT / spec.module_path)))
     outcome = "survived"
-    with use_mutation(spec.module_path, operator, spec.occurrence) as (before, after):
+    with contextlib.ExitStack() as stack:
+        try:
+            before, after = stack.enter_context(
+                use_mutation(spec.module_path, operator, spec.occurrence)
+            )
+        except Exception as error:
+            # Some operators trip over some parse trees (the exception-handler one does);
+            # the file is only written once the mutant exists, so nothing needs undoing.
+            where = f"{spec.module_path}:{spec.start_pos[0]}"
+            print(f"mutation: cosmic-ray cannot apply the mutant at {where}: {error!r}",
+                  file=sys.stderr)  # fmt: skip
+            return "incompetent", ""
         if after is None:
             return "incompetent", ""
         for tests, limit in runs:
