@@ -13,11 +13,14 @@ from __future__ import annotations
 
 import io
 import struct
+import threading
 from collections.abc import Iterator
+from pathlib import Path
 from typing import TextIO, cast
 
-from fw1394.capture.formats import containers, kernel
+from fw1394.capture.formats import containers, kernel, sources
 from fw1394.capture.formats import eth1394_udp as udp
+from fw1394.capture.formats.live import Limits
 from fw1394.capture.formats.record import BusRecord, Direction, RecordType
 from fw1394.capture.formats.trace_writer import record_bytes
 
@@ -149,11 +152,13 @@ def test_an_inbound_request_is_delivered_at_its_own_line_and_the_response_waits_
     assert len(taken) == 1
     (request,) = [first.record(i) for i in range(len(first))]
     assert request.direction == Direction.inbound and request.ack == 2
+    assert request.observer == 1  # an inbound packet is logged by its destination, 0xffc1
     assert request.data[3] >> 4 == 4  # tcode 4: quadlet read request
     second = next(batches)
     assert len(taken) == 3  # the response came out with its completion line
     (response,) = [second.record(i) for i in range(len(second))]
     assert response.direction == Direction.outbound and response.ack == 1  # ack_complete
+    assert response.observer == 1  # an outbound one by its source, 0xffc1
     assert response.data[3] >> 4 == 6
     assert list(batches) == []
 
@@ -176,3 +181,148 @@ def test_a_phy_packet_with_its_inverse_is_written_as_checked_and_sound() -> None
     assert _phy_flags(0x01BF0000, 0xFE40FFFF) == (2, _CRC_PRESENT | _CRC_VALID)
     assert _phy_flags(0x01BF0000, 0xFE40FFFE) == (2, _CRC_PRESENT)
     assert _phy_flags(0x01BF0000, 0x01BF0000) == (2, _CRC_PRESENT)
+
+
+def test_a_block_response_that_also_reads_as_a_request_is_told_by_its_padded_size() -> None:
+    # Block read response (tcode 7) from node 0x0005 with 5 data bytes: 16 header bytes,
+    # header CRC, the data padded to 8, data CRC (32 bytes), then 8 extra bytes.
+    head = struct.pack(">4I", 0xFFD01C70, 0x00050000, 0, 5 << 16)
+    response = head + bytes(4) + b"QLA1\x07" + bytes(3) + bytes(4)
+    payload = response + bytes.fromhex("10050000006400c8")
+    assert udp.classify(payload) == "response"
+
+
+# -- captured Ethernet frames: addresses and link types ---------------------------------------
+
+
+def _udp(payload: bytes) -> bytes:
+    return struct.pack(">HHHH", 1394, 1394, 8 + len(payload), 0) + payload
+
+
+def _ipv4(source: bytes, destination: bytes, payload: bytes) -> bytes:
+    header = struct.pack(">BBHHHBBH", 0x45, 0, 20 + len(payload), 0, 0, 64, 17, 0)
+    return header + source + destination + payload
+
+
+def test_the_datagrams_addresses_come_from_the_ip_header() -> None:
+    datagram = _udp(b"\x00\x05" + bytes(16))
+    ethernet = (
+        bytes(6)
+        + bytes(6)
+        + b"\x08\x00"
+        + _ipv4(bytes([10, 0, 0, 1]), bytes([10, 0, 0, 2]), datagram)
+    )
+    found = udp.udp_payload(1, ethernet)  # LINKTYPE_ETHERNET
+    assert isinstance(found, udp.Datagram)
+    assert (found.source, found.destination) == ("10.0.0.1", "10.0.0.2")
+    assert found.payload == b"\x00\x05" + bytes(16)
+    # IPv6 (LINKTYPE_RAW, 101): version 6, payload length, next header 17 (UDP), hop limit,
+    # then the 16-byte source and destination addresses.
+    source, destination = bytes(range(16)), bytes(range(16, 32))
+    ipv6 = struct.pack(">IHBB", 6 << 28, len(datagram), 17, 64) + source + destination
+    found = udp.udp_payload(101, ipv6 + datagram)
+    assert isinstance(found, udp.Datagram)
+    assert (found.source, found.destination) == (source.hex(), destination.hex())
+
+
+def test_linux_cooked_v2_frames_are_read_at_link_type_276() -> None:
+    # LINKTYPE_LINUX_SLL2 (276): protocol type(2) reserved(2) interface index(4)
+    # ARPHRD type(2) packet type(1) address length(1) address(8), then the IP packet.
+    cooked = struct.pack(">HHIHBB8s", 0x0800, 0, 2, 1, 0, 6, bytes(8))
+    frame = cooked + _ipv4(
+        bytes([10, 0, 0, 1]), bytes([10, 0, 0, 2]), _udp(b"\x00\x05" + bytes(16))
+    )
+    found = udp.udp_payload(276, frame)
+    assert isinstance(found, udp.Datagram) and found.source == "10.0.0.1"
+
+
+# -- pcap: resynchronisation needs three records in a row, not every record to the end -----------
+
+
+def test_pcap_resynchronises_before_a_second_damaged_record() -> None:
+    header = struct.pack("<IHHiIII", 0xA1B2C3D4, 2, 4, 0, 0, 65535, 147)
+    good = [_pcap_record(1_700_000_000, i, bytes([i]) * 8, 8) for i in range(5)]
+    damage = b"\xff" * 16
+    content = header + good[0] + damage + good[1] + good[2] + good[3] + damage + good[4]
+    chunks = list(containers.read_chunks(io.BytesIO(content)))
+    data = [chunk.packet(i) for chunk in chunks for i in range(len(chunk))]
+    assert data == [bytes([i]) * 8 for i in range(5)]
+    assert len([issue for chunk in chunks for issue in chunk.issues]) == 2
+
+
+# -- fw1394 pcapng: a pseudo-header of another version is not read as this one ------------------
+
+
+def test_a_record_with_an_unknown_pseudo_header_version_is_an_issue(tmp_path: Path) -> None:
+    section = _pcapng_block(0x0A0D0D0A, struct.pack("<IHHq", 0x1A2B3C4D, 1, 0, -1))
+    interface = _pcapng_block(1, struct.pack("<HHI", 147, 0, 0))  # LINKTYPE_USER0
+    packet = struct.pack(">4I", 0xFFC00C40, 0xFFC1FFFF, 0xF0000400, 0)  # a quadlet read
+    # docs/capture-format.md: version, header_length 12, record_type 0 (async packet),
+    # speed, flags, ack, generation, sender, observer, reserved.
+    blocks = [
+        _enhanced(1, struct.pack(">BBBBHBBBBH", version, 12, 0, 2, 0, 0, 5, 1, 0xFF, 0) + packet)
+        for version in (1, 2)
+    ]
+    path = tmp_path / "versions.pcapng"
+    path.write_bytes(section + interface + b"".join(blocks))
+    (batch,) = [job() for job in sources.jobs(str(path), "fw1394")]
+    assert len(batch) == 1 and batch.record(0).data == packet
+    assert [issue.position for issue in batch.issues] == [len(section + interface + blocks[0])]
+
+
+# -- nosy-dump: each bus reset starts a generation ---------------------------------------------
+
+
+def test_each_bus_reset_in_a_nosy_dump_starts_the_next_generation(tmp_path: Path) -> None:
+    # Records: a C int byte count (little-endian host), then host-order words; a bus reset
+    # is the timestamp alone; a PHY packet is the quadlet, its inverse and the snoop ack.
+    def record(*words: int) -> bytes:
+        return struct.pack(f"<i{len(words)}I", 4 * len(words), *words)
+
+    phy = 0x01BF0000
+    dump = record(10, phy, phy ^ 0xFFFFFFFF, 0) + record(20) + record(30) + record(40)
+    dump += record(50, phy, phy ^ 0xFFFFFFFF, 0)
+    path = tmp_path / "resets.nosy"
+    path.write_bytes(dump)
+    found = [batch.record(i) for job in sources.jobs(str(path), "nosy") for batch in [job()]
+             for i in range(len(batch))]  # fmt: skip
+    assert [r.record_type for r in found] == [RecordType.phy_packet] + [
+        RecordType.bus_reset
+    ] * 3 + [RecordType.phy_packet]
+    assert [r.generation for r in found] == [0, 1, 2, 3, 3]
+
+
+# -- live capture limits --------------------------------------------------------------------------
+
+
+def test_a_capture_ends_on_a_stop_request_or_its_packet_count() -> None:
+    stop = threading.Event()
+    assert not Limits(stop).done(1_000_000)
+    assert not Limits(stop, count=3).done(2) and Limits(stop, count=3).done(3)
+    stop.set()
+    assert Limits(stop).done(0)
+
+
+def _crc32_1394(data: bytes) -> int:
+    """IEEE 1394's CRC: polynomial 0x04C11DB7, initial value and final xor all ones, MSB first."""
+    crc = 0xFFFFFFFF
+    for byte in data:
+        crc ^= byte << 24
+        for _ in range(8):
+            crc = (crc << 1) ^ 0x04C11DB7 if crc & 0x80000000 else crc << 1
+            crc &= 0xFFFFFFFF
+    return crc ^ 0xFFFFFFFF
+
+
+def test_a_block_packet_is_written_as_sound_only_when_both_crcs_match() -> None:
+    # Block write request (tcode 1), 5 data bytes padded to 8; header CRC, data CRC.
+    header = struct.pack(">4I", 0xFFC00410, 0xFFC1FFFF, 0xF0000400, 5 << 16)
+    data = b"QLA1\x07" + bytes(3)
+
+    def flags(packet: bytes) -> int:
+        written = record_bytes(BusRecord(1_000, RecordType.async_packet, packet))
+        return int(struct.unpack_from(">H", written, 4)[0]) & (_CRC_PRESENT | _CRC_VALID)
+
+    sound = header + struct.pack(">I", _crc32_1394(header)) + data
+    assert flags(sound + struct.pack(">I", _crc32_1394(data))) == _CRC_PRESENT | _CRC_VALID
+    assert flags(sound + struct.pack(">I", _crc32_1394(data) ^ 1)) == _CRC_PRESENT
