@@ -89,6 +89,7 @@ PLAN: dict[str, tuple[str, ...]] = {
         "tests/capture/test_robustness_captures.py",
         "tests/capture/test_pcapng_options_edges.py",
         "tests/capture/test_capture_formats_edges.py",
+        "tests/capture/test_known_answer_trace.py",
     ),
     "fw1394/fuzz/judge.py": (
         "tests/fuzz/test_fuzz_oracles.py",
