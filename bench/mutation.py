@@ -80,7 +80,7 @@ PLAN: dict[str, tuple[str, ...]] = {
         "tests/transport/test_membership_edges.py",
     ),
     "fw1394/transport/link.py": ("tests/transport/test_link.py",),
-    "fw1394/boards": ("tests/boards",),
+    "fw1394/boards": ("tests/boards", "tests/node/test_config_rom.py"),
     "fw1394/capture/formats": (
         "tests/capture/test_capture_formats.py",
         "tests/capture/test_capture_kernel.py",
