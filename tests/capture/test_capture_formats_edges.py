@@ -18,7 +18,8 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import TextIO, cast
 
-from fw1394.capture.formats import containers, kernel, sources
+from fw1394.capture.formats import batch as batches
+from fw1394.capture.formats import containers, kernel, nosy, sources
 from fw1394.capture.formats import eth1394_udp as udp
 from fw1394.capture.formats.live import Limits
 from fw1394.capture.formats.record import BusRecord, Direction, RecordType
@@ -259,14 +260,17 @@ def test_a_record_with_an_unknown_pseudo_header_version_is_an_issue(tmp_path: Pa
     packet = struct.pack(">4I", 0xFFC00C40, 0xFFC1FFFF, 0xF0000400, 0)  # a quadlet read
     # docs/capture-format.md: version, header_length 12, record_type 0 (async packet),
     # speed, flags, ack, generation, sender, observer, reserved.
-    blocks = [
-        _enhanced(1, struct.pack(">BBBBHBBBBH", version, 12, 0, 2, 0, 0, 5, 1, 0xFF, 0) + packet)
-        for version in (1, 2)
-    ]
+    # flags 0x0008: ack_present, with ack 2 (ack_pending); the good record's header is 16
+    # bytes long (readers skip header_length bytes, so 4 more bytes are allowed).
+    blocks = []
+    for version, size in ((1, 16), (2, 12)):
+        head = struct.pack(">BBBBHBBBBH", version, size, 0, 2, 8, 2, 5, 1, 0xFF, 0)
+        blocks.append(_enhanced(1, head + bytes(size - 12) + packet))
     path = tmp_path / "versions.pcapng"
     path.write_bytes(section + interface + b"".join(blocks))
     (batch,) = [job() for job in sources.jobs(str(path), "fw1394")]
     assert len(batch) == 1 and batch.record(0).data == packet
+    assert (batch.record(0).ack, batch.record(0).generation, batch.record(0).sender) == (2, 5, 1)
     assert [issue.position for issue in batch.issues] == [len(section + interface + blocks[0])]
 
 
@@ -326,3 +330,128 @@ def test_a_block_packet_is_written_as_sound_only_when_both_crcs_match() -> None:
     sound = header + struct.pack(">I", _crc32_1394(header)) + data
     assert flags(sound + struct.pack(">I", _crc32_1394(data))) == _CRC_PRESENT | _CRC_VALID
     assert flags(sound + struct.pack(">I", _crc32_1394(data) ^ 1)) == _CRC_PRESENT
+
+
+# -- pcapng: simple packet blocks, several interfaces, a damaged block, a clean end ---------------
+
+
+def _section() -> bytes:
+    return _pcapng_block(0x0A0D0D0A, struct.pack("<IHHq", 0x1A2B3C4D, 1, 0, -1))
+
+
+def _interface(linktype: int) -> bytes:
+    return _pcapng_block(1, struct.pack("<HHI", linktype, 0, 0))
+
+
+def _simple(data: bytes) -> bytes:
+    return _pcapng_block(3, struct.pack("<I", len(data)) + _pad(data))
+
+
+def _read(content: bytes, chunk_size: int) -> tuple[list[tuple[int, int, bytes]], list[int]]:
+    packets, issues = [], []
+    for chunk in containers.read_chunks(io.BytesIO(content), chunk_size=chunk_size):
+        issues += [issue.position for issue in chunk.issues]
+        packets += [
+            (int(chunk.position[i]), int(chunk.linktype[i]), chunk.packet(i))
+            for i in range(len(chunk))
+        ]
+    return packets, issues
+
+
+def test_simple_packet_blocks_need_an_interface_and_keep_their_position() -> None:
+    # A block of a type the reader does not know is skipped; it pushes what follows
+    # into later chunks.
+    content = _section() + _pcapng_block(0x0BAD, bytes(100))
+    early = len(content)
+    content += _simple(b"\x01\x02\x03") + _interface(147)  # the first one has no interface
+    expected = []
+    for index in range(8):
+        data = bytes([index]) * (5 + 3 * index)
+        expected.append((len(content), 147, data))
+        content += _simple(data)
+    for chunk_size in (40, 56, 1 << 20):
+        assert _read(content, chunk_size) == (expected, [early])
+
+
+def test_a_big_endian_section_after_a_little_endian_one_is_read_to_its_end() -> None:
+    little = _section() + _interface(147) + _enhanced(1, b"\x01" * 4)
+    # The same blocks in big-endian order: the byte-order magic tells the reader.
+    big = struct.pack(">IIIHHqI", 0x0A0D0D0A, 28, 0x1A2B3C4D, 1, 0, -1, 28)
+    big += struct.pack(">IIHHII", 1, 20, 147, 0, 0, 20)
+    for index in range(8):  # more than 256 bytes
+        body = struct.pack(">IIIII", 0, 0, index, 20, 20) + bytes([index]) * 20
+        big += struct.pack(">II", 6, 12 + len(body)) + body + struct.pack(">I", 12 + len(body))
+    packets, issues = _read(little + big, chunk_size=1 << 20)
+    assert [data for _, _, data in packets] == [b"\x01" * 4] + [bytes([i]) * 20 for i in range(8)]
+    assert issues == []
+
+
+def test_enhanced_packet_blocks_take_the_link_type_of_their_interface() -> None:
+    content = _section() + _interface(147) + _interface(1)
+    expected = []
+    for index in range(6):
+        block = struct.pack("<IIIII", index % 2, 0, index, 4, 4) + bytes([index]) * 4
+        expected.append((len(content), (147, 1)[index % 2], bytes([index]) * 4))
+        content += _pcapng_block(6, block)
+    assert _read(content, chunk_size=1 << 20) == (expected, [])
+
+
+def test_reading_resumes_at_the_next_packet_block_after_a_bad_block_length() -> None:
+    content = _section() + _interface(147) + _enhanced(1, b"\x01" * 4)
+    damaged = len(content)
+    content += struct.pack("<II", 0x0BAD, 13) + bytes(8)  # length 13: not a multiple of 4
+    after = len(content)
+    content += _enhanced(2, b"\x02" * 4) + _enhanced(3, b"\x03" * 4)
+    packets, issues = _read(content, chunk_size=1 << 20)
+    assert [data for _, _, data in packets] == [b"\x01" * 4, b"\x02" * 4, b"\x03" * 4]
+    assert packets[1][0] == after and issues == [damaged]
+
+
+def test_a_file_ending_on_a_block_boundary_has_no_truncated_block() -> None:
+    content = _section() + _interface(147)
+    content += b"".join(_enhanced(i, bytes(40)) for i in range(10))  # over 256 bytes
+    packets, issues = _read(content, chunk_size=1 << 20)
+    assert len(packets) == 10 and issues == []
+
+
+def test_ipv6_over_ethernet_is_read() -> None:
+    datagram = _udp(b"\x00\x05" + bytes(16))
+    source, destination = bytes(range(16)), bytes(range(16, 32))
+    ipv6 = struct.pack(">IHBB", 6 << 28, len(datagram), 17, 64) + source + destination
+    found = udp.udp_payload(1, bytes(12) + b"\x86\xdd" + ipv6 + datagram)
+    assert isinstance(found, udp.Datagram) and found.source == source.hex()
+
+
+def test_ports_of_refused_datagrams_are_counted_busiest_first() -> None:
+    tally = sources.PortTally((1394,))
+    assert 1394 in tally
+    for port in (7000, 6000, 5000, 5000, 6000, 5000):  # first seen is not busiest
+        assert port not in tally
+    assert tally.busiest() == [5000, 6000, 7000]
+    assert tally.busiest(1) == [5000]
+
+
+def test_nosy_dump_records_carry_microseconds_within_the_second() -> None:
+    out = io.BytesIO()
+    nosy.write(out, [BusRecord(1_234_567_890, RecordType.bus_reset, b"")])
+    assert out.getvalue() == struct.pack("<iI", 4, 234_567)
+
+
+def test_packets_of_any_size_are_packed_apart_and_read_back() -> None:
+    sizes = (1, 5, 4)
+    records = [
+        BusRecord(i, RecordType.async_packet, bytes([i + 1]) * n) for i, n in enumerate(sizes)
+    ]
+    batch = batches.from_records(records, [1, 2, 3])
+    assert [batch.record(i).data for i in range(3)] == [r.data for r in records]
+    # The first quadlets of each packet: only its whole quadlets, zeros after them.
+    quadlets = batches.header_quadlets(batch, None, 4)
+    assert quadlets.tolist() == [[0, 0, 0, 0], [0x02020202, 0, 0, 0], [0x03030303, 0, 0, 0]]
+
+
+def test_the_ohci_dmesg_sample_reads_without_issues() -> None:
+    path = Path(__file__).parents[1] / "data" / "firewire-ohci-dmesg.txt"
+    with open(path, encoding="utf-8") as stream:
+        found = list(kernel.read_batches(stream))
+    assert [issue for batch in found for issue in batch.issues] == []
+    assert sum(len(batch) for batch in found) > 0
