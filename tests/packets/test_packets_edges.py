@@ -35,8 +35,9 @@ from fw1394.packets.enums import PhyPacketType, PowerClass, RCode, Speed, TCode
 from fw1394.packets.eth1394 import ExtraBytes, HostReadRequest
 from fw1394.packets.fast import encode_packet
 from fw1394.packets.fields import FieldSpec, Quadlets
-from fw1394.packets.hextext import HexTextError, hex_bytes
+from fw1394.packets.hextext import HexTextError, hex_bytes, quadlets_hex
 from fw1394.packets.phy import (
+    ExtendedSelfIdPacket,
     PhyConfigPacket,
     RemoteAccessPacket,
     RemoteCommandPacket,
@@ -395,3 +396,30 @@ def test_a_nested_struct_flattens_at_its_byte_offsets() -> None:
         ("inner.bits.lo", 3, 1, 3, 4),
         ("tail", 4, 4, 31, 32),
     ]
+
+
+def test_a_remote_command_with_its_reserved_bits_set_rebuilds_exactly() -> None:
+    # 1394a remote command: 00 phy_ID(6) 00 type(4)=8 reserved(3) port(4) reserved(8) cmnd(3).
+    quadlet = 3 << 24 | 0x8 << 18 | 0b110 << 15 | 2 << 11 | 0x81 << 3 | 4
+    raw = struct.pack(">II", quadlet, quadlet ^ 0xFFFFFFFF)
+    command = decode_phy(raw)
+    assert isinstance(command, RemoteCommandPacket)
+    assert (command.phy_id, command.port, command.command) == (3, 2, 4)
+    assert encode_phy(command) == raw
+
+
+def test_an_extended_self_id_built_from_few_keywords_lists_no_ports() -> None:
+    # Self-ID packet #1: 10 phy_ID(6) 1 n(3) rsv(2) pa..ph (2 bits each) r(1) m(1);
+    # port status 00 is "not present".
+    quadlet = 0b10 << 30 | 5 << 24 | 1 << 23 | 1 << 20
+    packet = ExtendedSelfIdPacket(phy_id=5, sequence=1)
+    assert encode_phy(packet) == struct.pack(">II", quadlet, quadlet ^ 0xFFFFFFFF)
+
+
+def test_quadlets_are_shown_as_eight_digits_with_a_short_tail() -> None:
+    assert quadlets_hex(bytes(range(1, 10))) == "01020304 05060708 09"
+
+
+def test_an_out_of_range_field_names_its_largest_value() -> None:
+    with pytest.raises(PacketError, match=r"does not fit in 6 bits \(0\.\.0x3f\)"):
+        encode(QuadletReadRequest(destination_id=0xFFC0, tlabel=64, offset=0))
