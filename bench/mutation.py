@@ -79,7 +79,10 @@ PLAN: dict[str, tuple[str, ...]] = {
         "tests/transport/test_membership_pause.py",
         "tests/transport/test_membership_edges.py",
     ),
-    "fw1394/transport/link.py": ("tests/transport/test_link.py",),
+    "fw1394/transport/link.py": (
+        "tests/transport/test_link.py",
+        "tests/transport/test_link_edges.py",
+    ),
     "fw1394/boards": ("tests/boards", "tests/node/test_config_rom.py"),
     "fw1394/capture/formats": (
         "tests/capture/test_capture_formats.py",
