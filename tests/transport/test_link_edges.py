@@ -10,6 +10,8 @@ import struct
 
 from fw1394.boards.memory.board import MemorySpace
 from fw1394.engine import THESIS_FPGA, ReadCompleted, Requester, Responder
+from fw1394.packets import QuadletReadRequest, QuadletReadResponse, QuadletWriteRequest
+from fw1394.packets.fast import encode_packet
 from fw1394.transport.link import RequesterLink, ResponderLink
 from fw1394.transport.sansio.membership import BusReset
 from fw1394.transport.sansio.wire import FrameHeader
@@ -57,3 +59,29 @@ def test_a_response_behind_an_ack_frame_is_acked_complete_under_that_frames_numb
     # The host acked that response complete, under the ack frame's own number.
     host_acks = [p for k, p in from_host if k == ACK]
     assert host_acks == [struct.pack(">BBHI", ACK_COMPLETE_BYTE, tlabel, 0, number)]
+
+
+def test_a_decoded_packet_is_answered_like_its_bytes() -> None:
+    # serve_packet (a transport that decodes once for several nodes) sends what the
+    # bytes path sends: a concatenated read is one ack frame, ack_pending (0x2D) with
+    # the response behind it; a unified write one ack frame, ack_complete, alone.
+    space = MemorySpace(4096)
+    space.write_quadlet(0x40, 0xCAFEF00D)
+    sent: list[tuple[int, int, bytes]] = []
+    link = ResponderLink(Responder(node_id=0xFFFF, space=space, policy=THESIS_FPGA),
+                         lambda k, d, p: sent.append((k, d, p)))  # fmt: skip
+    link.apply([BusReset(generation=0, phy_id=NODE_PHY, members=(), initiator=0)])
+    read = QuadletReadRequest(destination_id=NODE_ID, tlabel=9, source_id=HOST_ID, offset=0x40)
+    link.serve_packet(read, False, HOST_PHY, 0x01020304, 0.0)
+    write = QuadletWriteRequest(
+        destination_id=NODE_ID, tlabel=10, source_id=HOST_ID, offset=0x44, quadlet_data=7
+    )
+    link.serve_packet(write, False, HOST_PHY, 0x01020305, 0.0)
+    response = QuadletReadResponse(
+        destination_id=HOST_ID, tlabel=9, source_id=NODE_ID, quadlet_data=0xCAFEF00D
+    )
+    assert sent == [
+        (ACK, HOST_PHY, struct.pack(">BBHI", 0x2D, 9, 0, 0x01020304) + encode_packet(response)),
+        (ACK, HOST_PHY, struct.pack(">BBHI", ACK_COMPLETE_BYTE, 10, 0, 0x01020305)),
+    ]
+    assert space.read_quadlet(0x44) == 7
