@@ -455,3 +455,61 @@ def test_the_ohci_dmesg_sample_reads_without_issues() -> None:
         found = list(kernel.read_batches(stream))
     assert [issue for batch in found for issue in batch.issues] == []
     assert sum(len(batch) for batch in found) > 0
+
+
+# -- fourth round: the remaining fields and limits ---------------------------------------------
+
+
+def test_an_eth1394_response_is_seen_by_its_destination_and_sent_by_its_source() -> None:
+    response = struct.pack(">5I", 0xFFD01C60, 0xFFC00000, 0, 0x514C4131, 0)
+    datagram = udp.Datagram(response + bytes.fromhex("10050000006400c8"), "10.0.0.2", "10.0.0.1")
+    found = udp.Eth1394Decoder().records(datagram, 1_000)
+    assert isinstance(found, list)
+    ((record),) = found
+    assert (record.sender, record.observer) == (0, 0x10)  # 0xFFC0 sent it, 0xFFD0 logged it
+
+
+def test_obsolete_packet_blocks_of_no_data_and_of_an_undefined_interface() -> None:
+    content = _section() + _pcapng_block(0x0BAD, bytes(100)) + _interface(147)
+    empty = len(content)
+    content += _obsolete(7, b"", 0)  # 32 bytes: a packet of no bytes
+    undefined = len(content)
+    head = struct.pack("<HHIIII", 3, 0, 0, 8, 4, 4)  # interface 3 was never described
+    content += _pcapng_block(2, head + bytes(4))
+    for chunk_size in (40, 1 << 20):
+        packets, issues = _read(content, chunk_size)
+        assert packets == [(empty, 147, b"")] and issues == [undefined]
+
+
+def test_timestamps_finer_than_a_nanosecond_are_cut_to_nanoseconds() -> None:
+    # if_tsresol (option 9) = 12: picoseconds; then end of options.
+    options = struct.pack("<HHB3x", 9, 1, 12) + struct.pack("<HH", 0, 0)
+    interface = _pcapng_block(1, struct.pack("<HHI", 147, 0, 0) + options)
+    content = _section() + interface + _enhanced(5_000_999, b"\x01" * 4)
+    chunks = list(containers.read_chunks(io.BytesIO(content)))
+    assert [int(t) for chunk in chunks for t in chunk.ts_ns] == [5_000]
+
+
+def test_records_without_a_node_read_back_without_one(tmp_path: Path) -> None:
+    records = [BusRecord(1, RecordType.bus_reset, b"", 3)]  # no sender, no observer
+    assert batches.from_records(records, [1]).record(0).observer is None
+    # The pseudo-header's 0xFF (docs/capture-format.md: no such node) reads as None.
+    head = struct.pack(">BBBBHBBBBH", 1, 12, 3, 0xFF, 0, 0, 3, 0xFF, 0xFF, 0)
+    path = tmp_path / "reset.pcapng"
+    path.write_bytes(_section() + _interface(147) + _enhanced(1, head))
+    (batch,) = [job() for job in sources.jobs(str(path), "fw1394")]
+    assert (batch.record(0).sender, batch.record(0).observer) == (None, None)
+    assert (int(batch.sender[0]), int(batch.observer[0])) == (-1, -1)  # the columns' "unknown"
+
+
+def test_a_capture_ends_when_its_duration_has_passed() -> None:
+    stop = threading.Event()
+    assert not Limits(stop, duration=60.0).done(0)
+    assert Limits(stop, duration=0.0).done(0)
+
+
+def test_a_nosy_head_must_chain_whole_records() -> None:
+    reset = struct.pack("<iI", 4, 12)  # a bus reset: the timestamp alone
+    assert nosy.plausible(reset * 3)
+    assert not nosy.plausible(b"")
+    assert not nosy.plausible(reset + struct.pack("<i", -1) + bytes(8))  # a damaged length
