@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import TextIO, cast
 
 from fw1394.capture.formats import batch as batches
-from fw1394.capture.formats import containers, kernel, nosy, sources
+from fw1394.capture.formats import containers, kernel, kernel_trace, nosy, sources
 from fw1394.capture.formats import eth1394_udp as udp
 from fw1394.capture.formats.live import Limits
 from fw1394.capture.formats.record import BusRecord, Direction, RecordType
@@ -513,3 +513,58 @@ def test_a_nosy_head_must_chain_whole_records() -> None:
     assert nosy.plausible(reset * 3)
     assert not nosy.plausible(b"")
     assert not nosy.plausible(reset + struct.pack("<i", -1) + bytes(8))  # a damaged length
+
+
+# -- fifth round -------------------------------------------------------------------------------
+
+
+def test_bsd_loopback_frames_carry_the_ip_packet_after_a_4_byte_family() -> None:
+    # LINKTYPE_NULL (0): a 4-byte address family in host byte order, then the IP packet.
+    ip = _ipv4(bytes([10, 0, 0, 1]), bytes([10, 0, 0, 2]), _udp(b"\x00\x05" + bytes(16)))
+    found = udp.udp_payload(0, struct.pack("<I", 2) + ip)
+    assert isinstance(found, udp.Datagram) and found.source == "10.0.0.1"
+
+
+def test_a_nosy_dump_async_packet_is_sent_by_its_source(tmp_path: Path) -> None:
+    # A quadlet read request from 0xFFC1 to 0xFFC0 (header CRC not checked here), ack 2.
+    words = [0xFFC00140, 0xFFC1FFFF, 0xF0000400, 0x12345678]
+    path = tmp_path / "read.nosy"
+    path.write_bytes(struct.pack("<i6I", 24, 10, *words, 0x1232))
+    (batch,) = [job() for job in sources.jobs(str(path), "nosy")]
+    assert (batch.record(0).sender, batch.record(0).ack) == (1, 2)
+
+
+def test_the_linux_status_for_no_ack_is_a_missing_ack() -> None:
+    # include/linux/firewire-constants.h: RCODE_NO_ACK 0x14; other rcodes carry no ack.
+    assert kernel_trace.ack_of_status(0x14) == 0
+    assert kernel_trace.ack_of_status(0x15) is None
+    assert kernel_trace.ack_of_status(0x4) == 4
+
+
+def test_a_tracepoint_with_generation_0_is_read() -> None:
+    line = _INBOUND.replace("generation=3", "generation=0")
+    event = kernel_trace.parse(line)
+    assert event is not None and event.records[0].generation == 0
+
+
+def test_fw1394_records_are_numbered_from_the_first_frame(tmp_path: Path) -> None:
+    head = struct.pack(">BBBBHBBBBH", 1, 12, 3, 0xFF, 0, 0, 3, 0xFF, 0xFF, 0)
+    path = tmp_path / "resets.pcapng"
+    path.write_bytes(_section() + _interface(147) + b"".join(_enhanced(i, head) for i in range(4)))
+    (batch,) = [job() for job in sources.jobs(str(path), "fw1394")]
+    assert [int(f) for f in batch.frame] == [1, 2, 3, 4]
+
+
+def test_an_empty_resolution_option_leaves_microseconds_and_a_long_packet_block_is_an_issue() -> (
+    None
+):
+    # if_tsresol (9) with no value, then end of options: the default, microseconds.
+    options = struct.pack("<HH", 9, 0) + struct.pack("<HH", 0, 0)
+    interface = _pcapng_block(1, struct.pack("<HHI", 147, 0, 0) + options)
+    content = _section() + interface + _enhanced(7, b"\x01" * 4)
+    bad = len(content)
+    head = struct.pack("<HHIIII", 0, 0, 0, 8, 40, 40)  # 40 bytes said, 4 there
+    content += _pcapng_block(2, head + bytes(4))
+    chunks = list(containers.read_chunks(io.BytesIO(content), chunk_size=1 << 20))
+    assert [int(t) for chunk in chunks for t in chunk.ts_ns] == [7_000]
+    assert [issue.position for chunk in chunks for issue in chunk.issues] == [bad]
