@@ -6,6 +6,9 @@
 * The Dallas DS2505 holds 16 kbit (2048 bytes); the host reads it in 256-byte blocks
   from any start address and the address wraps at the end of the memory.
 * IEEE 1212: SPLIT_TIMEOUT_LO powers up at 800 eighths of a millisecond (bits 31:19).
+* IEEE 1212: STATE_SET at 0x004 and NODE_IDS at 0x008 take one block write.
+* JHU spec: channel ADC is pot << 16 | current; hub register 0x1803 is {board id,
+  mask of the lower boards}.
 * The boards snoop a hub query (quadlet write to 0x1800) sent to node 0 or broadcast.
 * Dry friction: a motor at rest starts only when its torque exceeds the Coulomb friction.
 """
@@ -115,3 +118,29 @@ def test_a_reply_to_the_unspecified_address_goes_to_the_servers_own_address() ->
     # A host's multicast sent from 0.0.0.0 is answered on the server's own address.
     assert reply_address(("0.0.0.0", 5000), "127.0.0.5") == ("127.0.0.5", 5000)
     assert reply_address(("127.0.0.9", 5000), "127.0.0.5") == ("127.0.0.9", 5000)
+
+
+def test_an_adc_quadlet_is_the_pot_reading_above_the_current_reading() -> None:
+    # Spec §2.10: channel ADC is (pot << 16) | current; with the amplifier off the current
+    # reads the DAC's midrange.
+    board = Qla1Board(board_id=0, firmware=8)
+    for number in range(1, CHANNELS + 1):
+        adc = board.read_quadlet(number << 4 | 0)
+        assert adc >> 16 == board.channels[number - 1].pot_reading
+        assert adc & 0xFFFF == 0x8000
+
+
+def test_hub_register_0x1803_is_the_board_id_and_the_lower_boards() -> None:
+    # Spec: a 0x1800 write is {sequence 31:16, board mask 15:0}; 0x1803 reads
+    # {board id, mask of the boards below this one}.
+    board = Qla1Board(board_id=2, firmware=8)
+    board.write_quadlet(0x1800, 7 << 16 | 0b10111)
+    assert board.read_quadlet(0x1803) == 2 << 16 | 0b00011
+
+
+def test_a_csr_block_write_lands_on_consecutive_registers() -> None:
+    # IEEE 1212: STATE_SET at 0x004, NODE_IDS at 0x008 (a write sets the bus ID, 31:22).
+    board = make_board("qla1", board_id=1)
+    board.write_block(CSR + 0x004, struct.pack(">II", 1 << 8, 0x2AB << 22))
+    assert board.read_quadlet(CSR + 0x000) & 1 << 8  # STATE_CLEAR reads the state
+    assert board.read_quadlet(CSR + 0x008) >> 22 == 0x2AB
