@@ -423,3 +423,25 @@ def test_quadlets_are_shown_as_eight_digits_with_a_short_tail() -> None:
 def test_an_out_of_range_field_names_its_largest_value() -> None:
     with pytest.raises(PacketError, match=r"does not fit in 6 bits \(0\.\.0x3f\)"):
         encode(QuadletReadRequest(destination_id=0xFFC0, tlabel=64, offset=0))
+
+
+def test_a_0x_quadlet_takes_up_to_eight_digits() -> None:
+    assert hex_bytes("0x12345678 0x9") == bytes.fromhex("12345678 00000009")
+    with pytest.raises(HexTextError):
+        hex_bytes("0x123456789")
+
+
+def test_every_phy_packet_kind_takes_keyword_arguments_only() -> None:
+    for kind in (ExtendedSelfIdPacket, RemoteAccessPacket, RemoteCommandPacket):
+        with pytest.raises(TypeError):
+            kind(5)  # type: ignore[call-arg]
+
+
+def test_a_paged_remote_access_is_a_remote_access() -> None:
+    # 1394a remote access: 00 phy_ID(6) 00 type(4) page(3) port(4) reg(3) reserved(8);
+    # type 1 reads a base register, type 5 a paged one.
+    for kind in (0x1, 0x5):
+        quadlet = 4 << 24 | kind << 18 | 1 << 15 | 2 << 11 | 3 << 8
+        packet = decode_phy(struct.pack(">II", quadlet, quadlet ^ 0xFFFFFFFF))
+        assert isinstance(packet, RemoteAccessPacket)
+        assert (packet.phy_id, packet.page, packet.port, packet.register) == (4, 1, 2, 3)
