@@ -568,3 +568,31 @@ def test_an_empty_resolution_option_leaves_microseconds_and_a_long_packet_block_
     chunks = list(containers.read_chunks(io.BytesIO(content), chunk_size=1 << 20))
     assert [int(t) for chunk in chunks for t in chunk.ts_ns] == [7_000]
     assert [issue.position for chunk in chunks for issue in chunk.issues] == [bad]
+
+
+# -- sixth round -------------------------------------------------------------------------------
+
+
+def test_a_block_response_of_whole_quadlets_is_not_padded_further() -> None:
+    # Block read response with 8 data bytes: 20 header bytes, 8 data, data CRC, 8 extra.
+    head = struct.pack(">4I", 0xFFD01C70, 0x00050000, 0, 8 << 16)
+    payload = head + bytes(4) + b"QLA1QLA2" + bytes(4) + bytes.fromhex("10050000006400c8")
+    assert udp.classify(payload) == "response"
+
+
+def test_classic_pcap_fw1394_records_of_odd_lengths_read_back(tmp_path: Path) -> None:
+    # Classic pcap (microseconds), LINKTYPE_USER0; each record a pseudo-header and an odd
+    # number of bytes, so the second record's data starts one byte past a quadlet
+    # boundary (offset 49 of the records: 16 + 17 + 16).
+    header = struct.pack("<IHHiIII", 0xA1B2C3D4, 2, 4, 0, 0, 65535, 147)
+    packets = [bytes([n]) * (4 * n + 1) for n in (1, 2)]
+    content = header
+    for n, packet in enumerate(packets):
+        pseudo = struct.pack(">BBBBHBBBBH", 1, 12, 0, 2, 0, 0, 5, n, 0xFF, 0)
+        data = pseudo + packet
+        content += struct.pack("<IIII", 1_700_000_000, n, len(data), len(data)) + data
+    path = tmp_path / "odd.pcap"
+    path.write_bytes(content)
+    (batch,) = [job() for job in sources.jobs(str(path), "fw1394")]
+    assert [batch.record(i).data for i in range(len(batch))] == packets
+    assert [batch.record(i).sender for i in range(len(batch))] == [0, 1]
