@@ -596,3 +596,43 @@ def test_classic_pcap_fw1394_records_of_odd_lengths_read_back(tmp_path: Path) ->
     (batch,) = [job() for job in sources.jobs(str(path), "fw1394")]
     assert [batch.record(i).data for i in range(len(batch))] == packets
     assert [batch.record(i).sender for i in range(len(batch))] == [0, 1]
+
+
+# -- seventh round -------------------------------------------------------------------------------
+
+
+def test_a_second_section_of_the_same_byte_order_is_read() -> None:
+    # The second Section Header Block starts 84 bytes in (4 past a multiple of 8).
+    section = _section() + _interface(147) + _enhanced(1, b"\x01" * 4)
+    assert len(section) % 8 == 4
+    packets, issues = _read(section + section, chunk_size=1 << 20)
+    assert [data for _, _, data in packets] == [b"\x01" * 4] * 2 and issues == []
+
+
+def test_an_obsolete_packet_block_of_40_bytes_is_read_whole() -> None:
+    data = bytes(range(40))
+    content = _section() + _interface(147) + _obsolete(1, data, 40)
+    packets, issues = _read(content, chunk_size=1 << 20)
+    assert [p for _, _, p in packets] == [data] and issues == []
+
+
+def test_a_frame_cut_inside_its_udp_header_carries_no_datagram() -> None:
+    ip = _ipv4(bytes([10, 0, 0, 1]), bytes([10, 0, 0, 2]), _udp(b"\x00\x05" + bytes(16)))
+    ethernet = bytes(12) + b"\x08\x00" + ip
+    assert udp.udp_payload(1, ethernet[: 14 + 20 + 6]) is None
+
+
+def test_the_flags_of_fw1394_records_are_read_by_name(tmp_path: Path) -> None:
+    # docs/capture-format.md flags: crc_present 0x1, crc_valid 0x2, ack_present 0x8,
+    # direction in bits 5:4, time_unknown 0x80.
+    flags = (0x0001, 0x0008 | 2 << 4, 0x0080)
+    blocks = b"".join(
+        _enhanced(i, struct.pack(">BBBBHBBBBH", 1, 12, 3, 0xFF, f, 2, 3, 0xFF, 0xFF, 0))
+        for i, f in enumerate(flags)
+    )
+    path = tmp_path / "flags.pcapng"
+    path.write_bytes(_section() + _interface(147) + blocks)
+    (batch,) = [job() for job in sources.jobs(str(path), "fw1394")]
+    assert batch.flag("crc_present").tolist() == [1, 0, 0]
+    assert batch.flag("direction").tolist() == [0, 2, 0]
+    assert batch.flag("time_unknown").tolist() == [0, 0, 1]
