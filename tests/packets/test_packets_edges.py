@@ -16,6 +16,7 @@ import struct
 import pytest
 from construct import BitStruct, Int8ub, Int16ub, Int32ub, Nibble, Struct
 
+from fw1394.crc import crc32
 from fw1394.packets import (
     AckCode,
     BlockWriteRequest,
@@ -24,6 +25,7 @@ from fw1394.packets import (
     PacketError,
     QuadletReadRequest,
     QuadletReadResponse,
+    QuadletWriteRequest,
     decode,
     encode,
 )
@@ -32,7 +34,7 @@ from fw1394.packets.ack import Ack
 from fw1394.packets.asynchronous import CycleStart, StreamPacket, decode_async
 from fw1394.packets.bitfields import flatten
 from fw1394.packets.enums import PhyPacketType, PowerClass, RCode, Speed, TCode
-from fw1394.packets.eth1394 import ExtraBytes, HostReadRequest
+from fw1394.packets.eth1394 import ExtraBytes, HostReadRequest, max_write_data_size
 from fw1394.packets.fast import encode_packet
 from fw1394.packets.fields import FieldSpec, Quadlets
 from fw1394.packets.hextext import HexTextError, hex_bytes, quadlets_hex
@@ -445,3 +447,31 @@ def test_a_paged_remote_access_is_a_remote_access() -> None:
         packet = decode_phy(struct.pack(">II", quadlet, quadlet ^ 0xFFFFFFFF))
         assert isinstance(packet, RemoteAccessPacket)
         assert (packet.phy_id, packet.page, packet.port, packet.register) == (4, 1, 2, 3)
+
+
+def test_async_packets_take_keyword_arguments_only() -> None:
+    for kind in (QuadletReadRequest, QuadletWriteRequest, BlockWriteRequest):
+        with pytest.raises(TypeError):
+            kind(0xFFC0)  # type: ignore[call-arg]
+
+
+def test_on_loopback_a_block_write_carries_2024_bytes() -> None:
+    # Spec: the host's write limit is min(2048, MTU - 28 - 2) - 24: 1446 at MTU 1500,
+    # and on lo (MTU 65536) the 2048-byte packet limit rules: 2024.
+    assert max_write_data_size(1500) == 1446
+    assert max_write_data_size(65536) == 2024
+
+
+def test_a_self_id_summary_names_the_flags_that_are_set() -> None:
+    shown = summary(SelfIdPacket(phy_id=1, link_active=True, contender=False))
+    assert "link_active" in shown.split() and "contender" not in shown
+
+
+def test_a_block_cut_after_its_data_keeps_exactly_its_data() -> None:
+    # Block write request of 5 data bytes cut inside its padding: no data CRC (what a
+    # truncated capture holds).
+    head = struct.pack(">4I", 0xFFC00410, 0xFFC1FFFF, 0xF0000400, 5 << 16)
+    raw = head + struct.pack(">I", crc32(head)) + b"abcde" + bytes(2)
+    packet = decode(raw, strict=False)
+    assert isinstance(packet, BlockWriteRequest) and packet.data == b"abcde"
+    assert packet.problems
