@@ -14,7 +14,9 @@ from __future__ import annotations
 import struct
 
 import pytest
+from construct import BitStruct, Int8ub, Int16ub, Int32ub, Nibble, Struct
 
+from fw1394.crc import crc32
 from fw1394.packets import (
     AckCode,
     BlockWriteRequest,
@@ -23,24 +25,30 @@ from fw1394.packets import (
     PacketError,
     QuadletReadRequest,
     QuadletReadResponse,
+    QuadletWriteRequest,
+    decode,
     encode,
 )
 from fw1394.packets.accessors import SOURCE_ID, layout_reader
 from fw1394.packets.ack import Ack
-from fw1394.packets.asynchronous import decode_async
+from fw1394.packets.asynchronous import CycleStart, StreamPacket, decode_async
+from fw1394.packets.bitfields import flatten
 from fw1394.packets.enums import PhyPacketType, PowerClass, RCode, Speed, TCode
-from fw1394.packets.eth1394 import ExtraBytes
+from fw1394.packets.eth1394 import ExtraBytes, HostReadRequest, max_write_data_size
 from fw1394.packets.fast import encode_packet
 from fw1394.packets.fields import FieldSpec, Quadlets
-from fw1394.packets.hextext import HexTextError, hex_bytes
+from fw1394.packets.hextext import HexTextError, hex_bytes, quadlets_hex
 from fw1394.packets.phy import (
+    ExtendedSelfIdPacket,
     PhyConfigPacket,
     RemoteAccessPacket,
+    RemoteCommandPacket,
+    RemoteConfirmationPacket,
     SelfIdPacket,
     decode_phy,
     encode_phy,
 )
-from fw1394.packets.render import field_rows, hex_preview, summary
+from fw1394.packets.render import field_rows, hex_preview, summary, to_json
 
 
 def test_extended_phy_packet_types_are_the_1394a_numbers() -> None:
@@ -314,3 +322,156 @@ def test_field_readers_find_header_fields_at_their_standard_bytes() -> None:
     response = decode_async(raw + bytes(4))
     assert isinstance(response, QuadletReadResponse)
     assert (response.source_bus, response.source_node) == (0x3FF, 2)
+
+
+def test_a_responses_reserved_bits_rebuild_exactly() -> None:
+    # IEEE 1394-1995 response header: quadlet 1 is source_ID(16) rcode(4) reserved(12),
+    # quadlet 2 reserved(32). Bits a sender should leave zero still come back as they were.
+    for low12, quadlet2 in ((0x001, 0), (0x800, 0x80000000), (0xABC, 0x12345678)):
+        raw = struct.pack(">4I", 0xFFC11860, 0xFFC0 << 16 | low12, quadlet2, 0x514C4131)
+        response = decode(raw, crc=False)
+        assert isinstance(response, QuadletReadResponse)
+        assert (response.source_id, response.quadlet_data) == (0xFFC0, 0x514C4131)
+        assert encode(response, crc=False) == raw
+
+
+def test_an_ack_whose_parity_was_computed_has_no_parity_complaint() -> None:
+    # An ack built from its code alone (parity None: the complement is computed).
+    assert summary(Ack(AckCode.ack_pending)) == "ack_pending"
+    assert summary(Ack(AckCode.ack_pending, 0xD)) == "ack_pending"  # 0x2 complemented
+    assert summary(Ack(AckCode.ack_pending, 0x2)) == "ack_pending [bad parity]"
+
+
+def test_a_packet_without_a_data_block_has_no_data_keys() -> None:
+    quadlet = to_json(QuadletReadRequest(destination_id=0xFFC0, offset=0xFFFFF0000400))
+    assert {"data", "data_crc", "data_crc_ok"}.isdisjoint(quadlet)
+    assert quadlet["header_crc_ok"] is None  # built, not received: no CRC to judge
+    block = BlockWriteRequest(destination_id=0xFFC0, offset=0, data=b"abcd").with_crcs()
+    assert to_json(block)["data_crc_ok"] is True
+
+
+def test_a_host_read_request_takes_any_16_bit_block_length() -> None:
+    # The 1394 block header's data_length is 16 bits.
+    assert HostReadRequest(node=1, tl=2, data_length=0xFFFF).data_length == 0xFFFF
+    assert HostReadRequest(node=1, tl=2, data_length=0x8000).data_length == 0x8000
+    with pytest.raises(PacketError):
+        HostReadRequest(node=1, tl=2, data_length=0x10000)
+
+
+def test_packets_built_from_few_keywords_are_zero_where_the_standard_fixes_nothing() -> None:
+    # Cycle start (tcode 8): a broadcast (0xFFFF) write of CYCLE_TIME (0xFFFF_F000_0200).
+    start = encode(CycleStart(source_id=0xFFC0), crc=False)
+    assert start == struct.pack(">4I", 0xFFFF0080, 0xFFC0FFFF, 0xF0000200, 0)
+    # Asynchronous stream (tcode 0xA): data_length(16) tag(2) channel(6) tcode(4) sy(4).
+    stream = encode(StreamPacket(data=b"\x01\x02\x03\x04"), crc=False)
+    assert stream[:4] == struct.pack(">I", 4 << 16 | 0xA << 4)
+    # Remote command (1394a): 00 phy_ID(6) 00 type(4)=8 000 port(4) 0(8) cmnd(3);
+    # cmnd 0 is a NOP. Then the check quadlet, the first one inverted.
+    quadlet = 5 << 24 | 0x8 << 18 | 2 << 11
+    command = encode_phy(RemoteCommandPacket(phy_id=5, port=2))
+    assert command == struct.pack(">II", quadlet, quadlet ^ 0xFFFFFFFF)
+
+
+def test_a_remote_confirmation_with_its_reserved_bits_set_rebuilds_exactly() -> None:
+    # 1394a remote confirmation: 00 phy_ID(6) 00 type(4)=0xA reserved(3) port(4) reserved(3)
+    # fault connected bias disabled ok cmnd(3). Both reserved runs set, as received.
+    quadlet = 3 << 24 | 0xA << 18 | 0b111 << 15 | 2 << 11 | 0b111 << 8 | 1 << 6 | 1 << 3 | 5
+    raw = struct.pack(">II", quadlet, quadlet ^ 0xFFFFFFFF)
+    confirmation = decode_phy(raw)
+    assert isinstance(confirmation, RemoteConfirmationPacket)
+    assert (confirmation.phy_id, confirmation.port, confirmation.command) == (3, 2, 5)
+    assert confirmation.connected and not confirmation.fault
+    assert encode_phy(confirmation) == raw
+
+
+def test_a_nested_struct_flattens_at_its_byte_offsets() -> None:
+    layout = Struct(
+        "head" / Int16ub,
+        "inner" / Struct("first" / Int8ub, "bits" / BitStruct("hi" / Nibble, "lo" / Nibble)),
+        "tail" / Int32ub,
+    )
+    spans = [(f.name, f.byte_offset, f.byte_size, f.msb, f.width) for f in flatten(layout)]
+    assert spans == [
+        ("head", 0, 2, 15, 16),
+        ("inner.first", 2, 1, 7, 8),
+        ("inner.bits.hi", 3, 1, 7, 4),
+        ("inner.bits.lo", 3, 1, 3, 4),
+        ("tail", 4, 4, 31, 32),
+    ]
+
+
+def test_a_remote_command_with_its_reserved_bits_set_rebuilds_exactly() -> None:
+    # 1394a remote command: 00 phy_ID(6) 00 type(4)=8 reserved(3) port(4) reserved(8) cmnd(3).
+    quadlet = 3 << 24 | 0x8 << 18 | 0b110 << 15 | 2 << 11 | 0x81 << 3 | 4
+    raw = struct.pack(">II", quadlet, quadlet ^ 0xFFFFFFFF)
+    command = decode_phy(raw)
+    assert isinstance(command, RemoteCommandPacket)
+    assert (command.phy_id, command.port, command.command) == (3, 2, 4)
+    assert encode_phy(command) == raw
+
+
+def test_an_extended_self_id_built_from_few_keywords_lists_no_ports() -> None:
+    # Self-ID packet #1: 10 phy_ID(6) 1 n(3) rsv(2) pa..ph (2 bits each) r(1) m(1);
+    # port status 00 is "not present".
+    quadlet = 0b10 << 30 | 5 << 24 | 1 << 23 | 1 << 20
+    packet = ExtendedSelfIdPacket(phy_id=5, sequence=1)
+    assert encode_phy(packet) == struct.pack(">II", quadlet, quadlet ^ 0xFFFFFFFF)
+
+
+def test_quadlets_are_shown_as_eight_digits_with_a_short_tail() -> None:
+    assert quadlets_hex(bytes(range(1, 10))) == "01020304 05060708 09"
+
+
+def test_an_out_of_range_field_names_its_largest_value() -> None:
+    with pytest.raises(PacketError, match=r"does not fit in 6 bits \(0\.\.0x3f\)"):
+        encode(QuadletReadRequest(destination_id=0xFFC0, tlabel=64, offset=0))
+
+
+def test_a_0x_quadlet_takes_up_to_eight_digits() -> None:
+    assert hex_bytes("0x12345678 0x9") == bytes.fromhex("12345678 00000009")
+    with pytest.raises(HexTextError):
+        hex_bytes("0x123456789")
+
+
+def test_every_phy_packet_kind_takes_keyword_arguments_only() -> None:
+    for kind in (ExtendedSelfIdPacket, RemoteAccessPacket, RemoteCommandPacket):
+        with pytest.raises(TypeError):
+            kind(5)  # type: ignore[call-arg]
+
+
+def test_a_paged_remote_access_is_a_remote_access() -> None:
+    # 1394a remote access: 00 phy_ID(6) 00 type(4) page(3) port(4) reg(3) reserved(8);
+    # type 1 reads a base register, type 5 a paged one.
+    for kind in (0x1, 0x5):
+        quadlet = 4 << 24 | kind << 18 | 1 << 15 | 2 << 11 | 3 << 8
+        packet = decode_phy(struct.pack(">II", quadlet, quadlet ^ 0xFFFFFFFF))
+        assert isinstance(packet, RemoteAccessPacket)
+        assert (packet.phy_id, packet.page, packet.port, packet.register) == (4, 1, 2, 3)
+
+
+def test_async_packets_take_keyword_arguments_only() -> None:
+    for kind in (QuadletReadRequest, QuadletWriteRequest, BlockWriteRequest):
+        with pytest.raises(TypeError):
+            kind(0xFFC0)  # type: ignore[call-arg]
+
+
+def test_on_loopback_a_block_write_carries_2024_bytes() -> None:
+    # Spec: the host's write limit is min(2048, MTU - 28 - 2) - 24: 1446 at MTU 1500,
+    # and on lo (MTU 65536) the 2048-byte packet limit rules: 2024.
+    assert max_write_data_size(1500) == 1446
+    assert max_write_data_size(65536) == 2024
+
+
+def test_a_self_id_summary_names_the_flags_that_are_set() -> None:
+    shown = summary(SelfIdPacket(phy_id=1, link_active=True, contender=False))
+    assert "link_active" in shown.split() and "contender" not in shown
+
+
+def test_a_block_cut_after_its_data_keeps_exactly_its_data() -> None:
+    # Block write request of 5 data bytes cut inside its padding: no data CRC (what a
+    # truncated capture holds).
+    head = struct.pack(">4I", 0xFFC00410, 0xFFC1FFFF, 0xF0000400, 5 << 16)
+    raw = head + struct.pack(">I", crc32(head)) + b"abcde" + bytes(2)
+    packet = decode(raw, strict=False)
+    assert isinstance(packet, BlockWriteRequest) and packet.data == b"abcde"
+    assert packet.problems

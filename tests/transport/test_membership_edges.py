@@ -95,3 +95,26 @@ def test_only_members_send_heartbeats() -> None:
             sent[index] += [out.kind for out in node.outgoing()]
     assert FrameKind.heartbeat not in sent[0] and FrameKind.beacon in sent[0]
     assert FrameKind.heartbeat in sent[1] and FrameKind.beacon not in sent[1]
+
+
+def test_a_death_is_one_reset_a_settle_time_later_and_only_for_a_member() -> None:
+    bus = FakeBus()
+    nodes = [bus.add(rank, member_id=5000 + rank) for rank in range(3)]
+    bus.run(1.5)
+    before, _ = settled(bus)
+    coordinator = nodes[0]
+    # A process the station saw die that is no member of this bus: nothing to do.
+    coordinator.mark_dead(9999, bus.now)
+    bus.run(FAKE_TIMING.settle * 3)
+    assert settled(bus)[0] == before
+    # A member's death: one reset, once the settle time has passed and not before.
+    bus.kill(nodes[2])
+    coordinator.mark_dead(5002, bus.now)
+    fine = FAKE_TIMING.settle / 20
+    bus.run(FAKE_TIMING.settle * 0.9, step=fine)
+    assert coordinator.generation == before
+    bus.run(FAKE_TIMING.settle * 0.2, step=fine)
+    assert coordinator.generation == before + 1
+    bus.run(0.2)  # the self-ID phase of the new generation
+    after, members = settled(bus)
+    assert after == before + 1 and [m.rank for m in members] == [0, 1]

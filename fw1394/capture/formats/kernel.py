@@ -51,7 +51,6 @@ class KernelTextReader:
         self._queue: deque[_Pending] = deque()
         self._waiting: dict[str, _Pending] = {}
         self._self_id_generations: set[int] = set()
-        self._clock_ns = 0
         self._order = 0
 
     def batches(self, batch_records: int = BATCH_RECORDS) -> Iterator[Batch]:

@@ -100,7 +100,8 @@ class PcapReader:
         if depth == 0:
             return True
         if size - pos < PCAP_RECORD_HEADER_SIZE:
-            return depth < 3  # the chain ran to the end of the data
+            # The chain ran to the end of the data (_resync saw room for the first record).
+            return True
         seconds, fraction, caplen, original = self._record.unpack_from(buf, pos)
         if not (caplen <= limit and caplen <= original <= MAX_RECORD and fraction < 1_000_000_000):
             return False

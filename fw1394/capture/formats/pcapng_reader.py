@@ -194,11 +194,10 @@ class PcapngReader:
         elif block_type == IDB_TYPE and length >= 20:
             linktype = struct.unpack_from(order + "H", buf, pos + 8)[0]
             self._interfaces.append(self._interface(buf, pos + 16, pos + length - 4, linktype))
-        elif block_type in (EPB_TYPE, PB_TYPE) and length >= 32:
-            if block_type == EPB_TYPE:
-                interface, high, low, caplen = struct.unpack_from(order + "IIII", buf, pos + 8)
-            else:
-                interface, _, high, low, caplen = struct.unpack_from(order + "HHIII", buf, pos + 8)
+        elif block_type == PB_TYPE and length >= 32:
+            # Enhanced Packet Blocks never come here: every one whose length and trailer
+            # agree (the walk checks both first) is a start _EpbRuns found.
+            interface, _, high, low, caplen = struct.unpack_from(order + "HHIII", buf, pos + 8)
             if interface >= len(self._interfaces) or caplen > length - 32:
                 issues.append(Issue(base + pos, "packet block with a bad length or interface"))
                 return
