@@ -156,6 +156,18 @@ class HubState:
         self.blocks[board_id] = block
         self.last_update_tick = now
 
+    def keep_all(self, blocks: Sequence[tuple[int, HubBlock]], now: int) -> None:
+        """:meth:`keep` of every (board ID, block) of ``blocks`` in turn."""
+        update_ticks = now - self.query_tick
+        stored = self.blocks
+        for board_id, block in blocks:
+            if block.update_ticks != update_ticks:
+                block = replace(block, update_ticks=update_ticks)
+            stored.pop(board_id, None)
+            stored[board_id] = block
+        if blocks:
+            self.last_update_tick = now
+
     def store_broadcast(self, words: Sequence[int], now: int) -> None:
         """A board's broadcast: {sequence 31..16, quadlet count 7..0}, then its block."""
         if len(words) < 1 + STATUS + 1:
