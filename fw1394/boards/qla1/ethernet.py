@@ -43,7 +43,7 @@ from fw1394.boards.qla1.firewire import (
     hub_broadcast,
     is_hub_query,
 )
-from fw1394.boards.qla1.paths import ETHERNET_PATH, zero_crc_bytes
+from fw1394.boards.qla1.paths import ETHERNET_PATH, zero_crc_block_response, zero_crc_bytes
 from fw1394.boards.qla1.regs import (
     HUB_MEMORY_BASE,
     BoardRegister,
@@ -53,7 +53,6 @@ from fw1394.engine.space import TICKS_PER_SECOND
 from fw1394.packets import (
     AsyncPacket,
     BlockReadRequest,
-    BlockReadResponse,
     BlockWriteRequest,
     PacketError,
     QuadletReadRequest,
@@ -386,16 +385,14 @@ class EthernetPort:
         # The responder's space is a ClockedBoard: setting the time never goes back.
         self.responder.space.set_time(int(now * TICKS_PER_SECOND))
         data = self.board.broadcast_read_data() or b""
-        response = BlockReadResponse(
-            destination_id=target.requester,
-            tlabel=target.tlabel,
-            source_id=node_id_of(self.board.board_id),
-            reserved=BROADCAST_RESPONSE_Q2,
-            data=data,
+        response = zero_crc_block_response(
+            target.requester,
+            target.tlabel,
+            node_id_of(self.board.board_id),
+            BROADCAST_RESPONSE_Q2,
+            data,
         )
-        return Reply(
-            target.address, zero_crc_bytes(response), self._extra(True), target.received_at
-        )
+        return Reply(target.address, response, self._extra(True), target.received_at)
 
     # -- FireWire side and timers -----------------------------------------------------------
     def firewire_response(self, raw: bytes, now: float) -> list[Action]:

@@ -159,6 +159,43 @@ def zero_crc_bytes(response: Response) -> bytes:
     return bytes(raw)
 
 
+def zero_crc_block_response(
+    destination_id: int, tlabel: int, source_id: int, reserved: int, data: bytes
+) -> bytes:
+    """:func:`zero_crc_bytes` of the complete :class:`BlockReadResponse` carrying ``data``.
+
+    The header of a response depends on its addresses, label and length only: it is
+    encoded once for each of them (the hub answers the same host with the same few
+    labels and sizes every cycle) and the data put behind it as it is.
+    """
+    if len(data) % 4:
+        return zero_crc_bytes(
+            BlockReadResponse(
+                destination_id=destination_id,
+                tlabel=tlabel,
+                source_id=source_id,
+                reserved=reserved,
+                data=data,
+            )
+        )
+    head = _block_response_head(destination_id, tlabel, source_id, reserved, len(data))
+    return b"".join((head, data, _NO_CRC))
+
+
+@functools.lru_cache(maxsize=1024)
+def _block_response_head(
+    destination_id: int, tlabel: int, source_id: int, reserved: int, length: int
+) -> bytes:
+    response = BlockReadResponse(
+        destination_id=destination_id,
+        tlabel=tlabel,
+        source_id=source_id,
+        reserved=reserved,
+        data=bytes(length),
+    )
+    return zero_crc_bytes(response)[: _HEADER_CRC.stop]
+
+
 #: The FireWire link (FireWire.v): the responder policy does all the screening.
 FIREWIRE_PATH = Path(
     name=FIREWIRE,
