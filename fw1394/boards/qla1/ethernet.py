@@ -411,7 +411,9 @@ class EthernetPort:
         return self._round_progress(now) if self._pending else []
 
     def next_deadline(self) -> float | None:
-        return min((pending.deadline for pending in self._pending), default=None)
+        if not self._pending:
+            return None
+        return min(pending.deadline for pending in self._pending)
 
     def _extra(self, no_forward: bool, *, packet_dropped: bool = False) -> ExtraBytes:
         return ExtraBytes(

@@ -85,6 +85,7 @@ class Rack:
                 else None
             )
             self.members.append(RackBoard(board, responder, port))
+        self._cabled = [(n, m.port) for n, m in enumerate(self.members) if m.port is not None]
         #: The one-pass path for the host's real-time cycle; None: every datagram is
         #: served the general way (the reference the tests hold it equal to).
         self.fast_path: RackFastPath | None = RackFastPath(self.members, firmware)
@@ -92,7 +93,7 @@ class Rack:
     @property
     def ports(self) -> list[tuple[int, EthernetPort]]:
         """(index, port) of the boards cabled to the host."""
-        return [(n, m.port) for n, m in enumerate(self.members) if m.port is not None]
+        return list(self._cabled)
 
     def bus_reset(self) -> None:
         """A FireWire bus reset: the generation moves on (node IDs stay as they are)."""
@@ -122,18 +123,20 @@ class Rack:
             if replies is not None:
                 return replies
         replies = []
-        for index, _ in self.ports:
+        for index, _ in self._cabled:
             replies += self.receive(index, payload, sender, now)
         return replies
 
     def poll(self, now: float) -> list[tuple[int, Reply]]:
         replies: list[tuple[int, Reply]] = []
-        for index, port in self.ports:
-            replies += self._run(index, port.poll(now), now)
+        for index, port in self._cabled:
+            actions = port.poll(now)
+            if actions:
+                replies += self._run(index, actions, now)
         return replies
 
     def next_deadline(self) -> float | None:
-        deadlines = [d for _, port in self.ports if (d := port.next_deadline()) is not None]
+        deadlines = [d for _, port in self._cabled if (d := port.next_deadline()) is not None]
         return min(deadlines, default=None)
 
     def _run(self, origin: int, actions: list[Action], now: float) -> list[tuple[int, Reply]]:
