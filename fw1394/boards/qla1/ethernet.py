@@ -53,6 +53,7 @@ from fw1394.engine.space import TICKS_PER_SECOND
 from fw1394.packets import (
     AsyncPacket,
     BlockReadRequest,
+    BlockReadResponse,
     BlockWriteRequest,
     PacketError,
     QuadletReadRequest,
@@ -65,6 +66,7 @@ from fw1394.packets.asynchronous import tcode_of
 from fw1394.packets.enums import TCode
 from fw1394.packets.eth1394 import (
     Eth1394Error,
+    Eth1394Request,
     ExtraBytes,
 )
 from fw1394.packets.eth1394_fast import extra_bytes, split_request
@@ -75,6 +77,8 @@ from fw1394.packets.nodeid import node_id as node_id_of
 HostAddress = tuple[str, int]
 #: What an offset reaches over this path (no CSR window: only bits 15..0 arrive).
 _ethernet_address = functools.lru_cache(maxsize=4096)(ETHERNET_PATH.decoding.address)
+#: The request as a board's responder gets it (the host repeats the same few requests).
+_for_board = functools.lru_cache(maxsize=4096)(ETHERNET_PATH.for_board)
 #: Quadlet 2 of the unasked broadcast-read response: the hub memory offset.
 BROADCAST_RESPONSE_Q2 = HUB_MEMORY_BASE
 #: ETH_STATUS write bit that clears the sticky error flags.
@@ -191,6 +195,12 @@ class EthernetPort:
             framed = split_request(payload)
         except Eth1394Error:
             return []
+        return self.receive_framed(framed, sender, now)
+
+    def receive_framed(
+        self, framed: Eth1394Request, sender: HostAddress, now: float
+    ) -> list[Action]:
+        """:meth:`receive` of a datagram split into control word and packet already."""
         stale = ETHERNET_PATH.stale_read(framed.packet)
         packet = stale if stale is not None else decode_request(framed.packet)
         if packet is None:
@@ -249,7 +259,7 @@ class EthernetPort:
         sender: HostAddress,
         now: float,
     ) -> list[Action]:
-        target = ETHERNET_PATH.for_board(packet, self.responder.node_id & BROADCAST_PHY)
+        target = _for_board(packet, self.responder.node_id & BROADCAST_PHY)
         if isinstance(target, BlockReadRequest) and self._hub_round_waiting(target):
             deadline = now + self.hub_read_wait
             self._pending.append(
@@ -270,9 +280,22 @@ class EthernetPort:
         now: float,
     ) -> list[Action]:
         reply = self.responder.receive_packet(target, now, damaged=False)
-        if reply.response is None or not isinstance(reply.response, Response):
+        response = reply.response
+        if response is None or not isinstance(response, Response):
             return []
-        response = ETHERNET_PATH.answer(reply.response, target, reply_node)
+        if _plain_block_response(response):
+            # The hub read of every bridge-mode cycle: its header is encoded once.
+            assert isinstance(response, BlockReadResponse)
+            source = ETHERNET_PATH.answer_source(target, reply_node)
+            raw = zero_crc_block_response(
+                response.destination_id,
+                response.tlabel,
+                response.source_id if source is None else source,
+                response.reserved,
+                response.data,
+            )
+            return [Reply(sender, raw, self._extra(no_forward), now)]
+        response = ETHERNET_PATH.answer(response, target, reply_node)
         if isinstance(response, QuadletReadResponse):
             self.last_read = response.quadlet_data
         return [Reply(sender, zero_crc_bytes(response), self._extra(no_forward), now)]
@@ -416,10 +439,37 @@ class EthernetPort:
         return min(pending.deadline for pending in self._pending)
 
     def _extra(self, no_forward: bool, *, packet_dropped: bool = False) -> ExtraBytes:
-        return ExtraBytes(
-            bus_reset=self.firewire.resetting,
-            packet_dropped=packet_dropped,
-            summary_error=self.summary_error,
-            no_forward_echo=no_forward,
-            fpga_bus_generation=self.firewire.generation & 0xFF,
+        firewire = self.firewire
+        return _extra_bytes(
+            firewire.resetting,
+            packet_dropped,
+            self.summary_error,
+            no_forward,
+            firewire.generation & 0xFF,
         )
+
+
+# Every reply carries extra bytes, and they take few values: each is made once.
+@functools.lru_cache(maxsize=1024)
+def _extra_bytes(
+    bus_reset: bool, packet_dropped: bool, summary_error: bool, no_forward: bool, generation: int
+) -> ExtraBytes:
+    return ExtraBytes(
+        bus_reset=bus_reset,
+        packet_dropped=packet_dropped,
+        summary_error=summary_error,
+        no_forward_echo=no_forward,
+        fpga_bus_generation=generation,
+    )
+
+
+def _plain_block_response(response: Response) -> bool:
+    """A complete block read response with nothing else set: what
+    :func:`zero_crc_block_response` encodes."""
+    return type(response) is BlockReadResponse and response == BlockReadResponse(
+        destination_id=response.destination_id,
+        tlabel=response.tlabel,
+        source_id=response.source_id,
+        reserved=response.reserved,
+        data=response.data,
+    )

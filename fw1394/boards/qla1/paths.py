@@ -118,12 +118,18 @@ class Path:
         destination = node_id_of(responder_node, bus_of(packet.destination_id))
         return replace(packet, offset=offset, destination_id=destination)
 
+    def answer_source(self, request: Request, reply_node: int) -> int | None:
+        """The source ID a response to ``request`` leaves with from node ``reply_node``
+        over this path; None: the responder's own."""
+        if self.response_crcs:
+            return None
+        # The Ethernet path names {destination bus of the request, reply node}.
+        return node_id_of(reply_node, bus_of(request.destination_id))
+
     def answer(self, response: Response, request: Request, reply_node: int) -> Response:
         """``response`` as it leaves over this path, from node ``reply_node``."""
-        if self.response_crcs:
-            return response
-        # The Ethernet path names {destination bus of the request, reply node}.
-        return replace(response, source_id=node_id_of(reply_node, bus_of(request.destination_id)))
+        source = self.answer_source(request, reply_node)
+        return response if source is None else replace(response, source_id=source)
 
 
 @functools.lru_cache(maxsize=8192)

@@ -37,6 +37,8 @@ from fw1394.boards.qla1.rack_fast import RackFastPath
 from fw1394.boards.qla1.rack_member import BusState, RackBoard, RackLink
 from fw1394.engine import JHU_FIRMWARE, Responder
 from fw1394.packets import BlockWriteRequest, Request, Response
+from fw1394.packets.eth1394 import Eth1394Error
+from fw1394.packets.eth1394_fast import split_request
 from fw1394.packets.fast import encode_packet
 from fw1394.packets.nodeid import BROADCAST_PHY
 from fw1394.packets.nodeid import node_id as node_id_of
@@ -107,11 +109,15 @@ class Rack:
         port = self.members[index].port
         if port is None:
             return []
+        try:
+            framed = split_request(payload)
+        except Eth1394Error:
+            return []  # never "fresh": ignored
         if self.fast_path is not None and port.ethernet_hub:
-            replies = self.fast_path.bridge(payload, sender, now, self.bus.resetting)
+            replies = self.fast_path.bridge_framed(framed, sender, now, self.bus.resetting)
             if replies is not None:
                 return replies
-        return self._run(index, port.receive(payload, sender, now), now)
+        return self._run(index, port.receive_framed(framed, sender, now), now)
 
     def receive_everywhere(
         self, payload: bytes, sender: HostAddress, now: float

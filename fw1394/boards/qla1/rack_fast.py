@@ -45,7 +45,7 @@ from fw1394.boards.qla1.rt_blocks import (
     split_rev8_write,
 )
 from fw1394.packets import BlockWriteRequest, QuadletWriteRequest
-from fw1394.packets.eth1394 import Eth1394Error
+from fw1394.packets.eth1394 import Eth1394Error, Eth1394Request
 from fw1394.packets.eth1394_fast import split_request
 from fw1394.packets.nodeid import BROADCAST_PHY, LOCAL_BUS
 from fw1394.packets.nodeid import node_id as node_id_of
@@ -152,6 +152,14 @@ class RackFastPath:
         try:
             framed = split_request(payload)
         except Eth1394Error:
+            return None
+        return self.bridge_framed(framed, sender, now, resetting)
+
+    def bridge_framed(
+        self, framed: Eth1394Request, sender: HostAddress, now: float, resetting: bool
+    ) -> list[tuple[int, Reply]] | None:
+        """:meth:`bridge` of a datagram split into control word and packet already."""
+        if not self._bridge or resetting:
             return None
         if framed.control.no_forward:
             return None
