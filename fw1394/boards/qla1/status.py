@@ -12,6 +12,7 @@ write made with power off disables every amplifier.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from fw1394.boards.qla1.regs import (
     AMP_BITS,
@@ -38,9 +39,9 @@ DIGIN_MOTOR_SUPPLY = 1 << 28
 DIGIN_DOUT_SHIFT = 12
 
 
-@dataclass(frozen=True)
-class StatusCommand:
-    """What a STATUS write asked for, beyond the state changes it made."""
+class StatusCommand(NamedTuple):
+    """What a STATUS write asked for, beyond the state changes it made (a tuple: every
+    real-time write carries a STATUS write for each board)."""
 
     asks_for_power: bool  # power or an amplifier enable: clears the watchdog flag
     reboot: bool
