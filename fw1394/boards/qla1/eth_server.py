@@ -237,7 +237,11 @@ class Eth1394Server:
         replies: list[tuple[int, Reply]] = []
         for fd, _ in ready:
             replies += self._receive(self._by_fd[fd])
-        replies += self.rack.poll(self.now())
+        if due is not None:
+            # Only a hub read waiting for its round has a deadline; one that starts
+            # waiting in this step is due later, and a round that completes answers
+            # its waiting reads itself.
+            replies += self.rack.poll(self.now())
         processed = self.now()
         for index, reply in replies:
             self.send_reply(index, reply, processed)

@@ -142,8 +142,12 @@ class Rack:
         return replies
 
     def next_deadline(self) -> float | None:
-        deadlines = [d for _, port in self._cabled if (d := port.next_deadline()) is not None]
-        return min(deadlines, default=None)
+        soonest = None
+        for _, port in self._cabled:
+            due = port.next_deadline()
+            if due is not None and (soonest is None or due < soonest):
+                soonest = due
+        return soonest
 
     def _run(self, origin: int, actions: list[Action], now: float) -> list[tuple[int, Reply]]:
         queue: deque[tuple[int, Action]] = deque((origin, action) for action in actions)
