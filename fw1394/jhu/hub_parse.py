@@ -81,30 +81,54 @@ def split_hub(
     words: Sequence[int], boards: Sequence[HubBoard], sequence: int
 ) -> dict[int, list[int] | None]:
     """Board ID -> its real-time block from hub memory ``words`` (None: not valid)."""
-    ordered = sorted(boards, key=lambda board: board.board_id)
-    name = family([board.firmware for board in ordered])
-    blocks: dict[int, list[int] | None] = {board.board_id: None for board in ordered}
-    position = 0
-    for board in ordered:
-        if name == "rev4-6":
-            position = REV4_6_SLOT * board.board_id
-        header = words[position] if position < len(words) else 0
-        status = words[position + 2] if position + 2 < len(words) else 0
-        if header == 0 or status == 0:
-            break  # "invalid block": nothing after it is read either
-        if name == "rev8+":
-            size = header >> 24
-            good = (
-                header >> 16 & 0xFF == sequence & 0xFF
-                and not header & SEQUENCE_MISMATCH
-                and size == rt.rt_read_quadlets(board.firmware) + 1
-            )
-        else:
-            size = REV4_6_SLOT if name == "rev4-6" else REV7_BLOCK
-            good = header >> 16 == sequence & 0xFFFF and status >> AXES_SHIFT == AXES
-        good = good and status >> BOARD_ID_SHIFT & 0xF == board.board_id
-        chunk = list(words[position + 1 : position + size])
-        if good and len(chunk) == size - 1:
-            blocks[board.board_id] = chunk
-        position += max(size, 1)
-    return blocks
+    return HubPlan.of(boards).split(words, sequence)
+
+
+@dataclass(frozen=True)
+class HubPlan:
+    """What :func:`split_hub` works out from the boards alone, once for a loop's run."""
+
+    family: str
+    #: (board ID, the block size its header must give (Rev 8+)), in board order.
+    boards: tuple[tuple[int, int], ...]
+
+    @classmethod
+    def of(cls, boards: Sequence[HubBoard]) -> HubPlan:
+        ordered = sorted(boards, key=lambda board: board.board_id)
+        name = family([board.firmware for board in ordered])
+        sizes = tuple(
+            (board.board_id, rt.rt_read_quadlets(board.firmware) + 1) for board in ordered
+        )
+        return cls(name, sizes)
+
+    def split(self, words: Sequence[int], sequence: int) -> dict[int, list[int] | None]:
+        """:func:`split_hub` of ``words`` for these boards."""
+        name = self.family
+        blocks: dict[int, list[int] | None] = dict.fromkeys(
+            (board_id for board_id, _ in self.boards), None
+        )
+        total = len(words)
+        position = 0
+        for board_id, expected in self.boards:
+            if name == "rev4-6":
+                position = REV4_6_SLOT * board_id
+            header = words[position] if position < total else 0
+            status = words[position + 2] if position + 2 < total else 0
+            if header == 0 or status == 0:
+                break  # "invalid block": nothing after it is read either
+            if name == "rev8+":
+                size = header >> 24
+                good = (
+                    header >> 16 & 0xFF == sequence & 0xFF
+                    and not header & SEQUENCE_MISMATCH
+                    and size == expected
+                )
+            else:
+                size = REV4_6_SLOT if name == "rev4-6" else REV7_BLOCK
+                good = header >> 16 == sequence & 0xFFFF and status >> AXES_SHIFT == AXES
+            good = good and status >> BOARD_ID_SHIFT & 0xF == board_id
+            chunk = list(words[position + 1 : position + size])
+            if good and len(chunk) == size - 1:
+                blocks[board_id] = chunk
+            position += max(size, 1)
+        return blocks

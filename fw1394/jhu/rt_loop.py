@@ -28,7 +28,7 @@ from fw1394.boards.qla1.regs import (
     BoardRegister,
 )
 from fw1394.jhu.client import HOST_SOURCE_ID, LOCAL_BUS_IDS, MAX_DATAGRAM, EthUdpClient
-from fw1394.jhu.hub_parse import HubBoard, hub_read_quadlets, split_hub
+from fw1394.jhu.hub_parse import HubBoard, HubPlan, hub_read_quadlets
 from fw1394.jhu.scan import Protocol, ScanResult
 from fw1394.packets import QuadletReadRequest
 from fw1394.packets.eth1394 import BROADCAST_NODE
@@ -88,11 +88,13 @@ class RealTimeLoop:
         # Fixed for the run: worked out once, not every cycle.
         self._read_quadlets = [rt.rt_read_quadlets(board.firmware) for board in self.boards]
         self._hub_boards = [HubBoard(board.board_id, board.firmware) for board in self.boards]
+        self._hub_plan: HubPlan | None = None
         # The hub's layout follows the firmware: raises MixedFirmwareError for a broadcast
         # read over boards of different families, which the host refuses too.
-        self._hub_size = (
-            4 * hub_read_quadlets(self._hub_boards) if self.protocol is Protocol.BC_QRW else 0
-        )
+        self._hub_size = 0
+        if self.protocol is Protocol.BC_QRW:
+            self._hub_size = 4 * hub_read_quadlets(self._hub_boards)
+            self._hub_plan = HubPlan.of(self._hub_boards)
         self._idle_words = [
             write_block(board.board_id, board.firmware, Command()) for board in self.boards
         ]
@@ -131,7 +133,8 @@ class RealTimeLoop:
     def _split_hub(self, data: bytes | None) -> dict[int, list[int] | None]:
         if data is None:
             return dict.fromkeys((board.board_id for board in self.boards), None)
-        return split_hub(quadlets(data), self._hub_boards, self.sequence)
+        plan = self._hub_plan or HubPlan.of(self._hub_boards)
+        return plan.split(quadlets(data), self.sequence)
 
     # -- writes -------------------------------------------------------------------------
     def write_all(self, commands: dict[int, Command] | None = None) -> bool:

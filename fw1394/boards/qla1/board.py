@@ -87,6 +87,8 @@ OFFSET_LIMIT = 1 << 48
 _register_address = functools.lru_cache(maxsize=4096)(FIREWIRE_DECODING.address)
 #: Two amplifier temperatures (bits 15..8 and 7..0) in the board's raw units.
 TEMPERATURE_READING = 0x3C3C
+#: QTR1, QTR5 and the running counter of every channel: a stalled encoder has no edges.
+_NO_EDGES = (0,) * CHANNELS
 
 
 class Qla1Board:
@@ -115,6 +117,8 @@ class Qla1Board:
         self.defects = frozenset(defects)
         self.git_description = git_description & 0xFFFFFFFF
         self._initial_ip = IP_UNASSIGNED if ip_address is None else ip_to_register(ip_address)
+        #: The inputs and the block after its timestamp of the last sample (see _rt_block).
+        self._last_sample: tuple[tuple[object, ...], tuple[int, ...]] | None = None
         self._node_id = phy_of(physical_id)
         self._now = 0
         # The PROMs keep their contents through a reboot.
@@ -181,10 +185,14 @@ class Qla1Board:
     def store_hub_blocks(self, blocks: Sequence[HubBlock]) -> None:
         """Other boards' blocks of this round, as :meth:`store_hub_broadcast` stores their
         broadcasts, taken from their hubs instead of unpacked from the broadcasts."""
+        self.keep_hub_blocks([(reporting_board(block.quadlets), block) for block in blocks])
+
+    def keep_hub_blocks(self, blocks: Sequence[tuple[int, HubBlock]]) -> None:
+        """:meth:`store_hub_blocks` of blocks whose reporting board is known already
+        (a rack works it out once per block, not once per block and hub)."""
         if blocks:
             self.watchdog.clear_count(self._now)
-        for block in blocks:
-            self.hub.keep(reporting_board(block.quadlets), block, self._now)
+            self.hub.keep_all(blocks, self._now)
 
     # -- AddressSpace -------------------------------------------------------------------
 
@@ -213,6 +221,12 @@ class Qla1Board:
             self._broadcast_query(value)
             return
         self._write_index(_register_address(offset), value)
+
+    def take_query(self, value: int) -> None:
+        """A broadcast query: :meth:`write_quadlet` of ``value`` to 0x1800, without decoding
+        the offset again (the rack serves the host's query to every board at once)."""
+        self.watchdog.clear_count(self._now)
+        self._broadcast_query(value)
 
     def read_block(self, offset: int, length: int) -> bytes:
         _check_offset(offset)
@@ -433,22 +447,55 @@ class Qla1Board:
         return (max(elapsed, 1) - 1) & 0xFFFFFFFF
 
     def _rt_block(self) -> list[int]:
-        amp_on = [self.control.amp_on(channel.number) for channel in self.channels]
+        """The real-time block, sampled now.
+
+        Only the timestamp changes from one sample to the next unless one of the
+        values in :meth:`_sample_inputs` does (the host's loop samples every board
+        every cycle, mostly with nothing changed in between): the rest of the last
+        sample is kept with the values it was made from, and made again when they
+        differ.
+        """
+        inputs = self._sample_inputs()
+        timestamp = self._take_timestamp()
+        last = self._last_sample
+        if last is None or last[0] != inputs:
+            last = self._last_sample = (inputs, self._sample_tail())
+        return [timestamp, *last[1]]
+
+    def _sample_inputs(self) -> tuple[object, ...]:
+        """Every value the block after its timestamp is made from."""
+        control, channels = self.control, self.channels
+        return (
+            self._stored_status,
+            self.watchdog.timed_out,
+            control.relay_on,
+            control.power_enable,
+            control.amps_disabled,
+            control.digital_outputs,
+            [channel.dac_command for channel in channels],
+            [channel.encoder_position for channel in channels],
+        )
+
+    def _sample_tail(self) -> tuple[int, ...]:
+        """The real-time block after its timestamp, made from the board's state."""
+        channels = self.channels
+        on = self.control.amps_on
+        amp_on = [bool(on >> (channel.number - 1) & 1) for channel in channels]
         sample = rt.RtSample(
-            timestamp=self._take_timestamp(),
+            timestamp=0,
             status=self._status(),
             digital_input=self.control.digital_input(),
             # Bits 31..16 of the temperature quadlet carry data-collection status: idle.
             temperature=TEMPERATURE_READING,
-            adc=[ch.adc(on) for ch, on in zip(self.channels, amp_on, strict=True)],
-            encoder_position=[ch.encoder_data() for ch in self.channels],
-            encoder_period=[ch.encoder_period() for ch in self.channels],
-            encoder_qtr1=[0] * CHANNELS,
-            encoder_qtr5=[0] * CHANNELS,
-            encoder_running=[0] * CHANNELS,
-            motor_status=[MotorChannel.motor_status(on) for on in amp_on],
+            adc=[channel.adc(amp) for channel, amp in zip(channels, amp_on, strict=True)],
+            encoder_position=[channel.encoder_data() for channel in channels],
+            encoder_period=[channel.encoder_period() for channel in channels],
+            encoder_qtr1=_NO_EDGES,
+            encoder_qtr5=_NO_EDGES,
+            encoder_running=_NO_EDGES,
+            motor_status=[MotorChannel.motor_status(amp) for amp in amp_on],
         )
-        return rt.rt_read_block(sample, self.firmware)
+        return tuple(rt.rt_read_block(sample, self.firmware)[1:])
 
     def _rt_block_read(self, index: int, count: int) -> list[int]:
         block = self._rt_block()
@@ -477,9 +524,15 @@ class Qla1Board:
             feeds = bool(write.dac_commands or write.control)
         if feeds:
             self.watchdog.clear_count(self._now)
+        channels = self.channels
         for channel, value in write.dac_commands:
-            # The translator aims at register DAC of that channel, whatever it is.
-            self._write_main((channel << 4) | ChannelRegister.DAC, value)
+            if 1 <= channel <= CHANNELS:  # straight to the channel: the common case
+                enable = channels[channel - 1].write_dac(value)
+                if enable is not None:
+                    self.control.request_amp(channel, enable)
+            else:
+                # The translator aims at register DAC of that channel, whatever it is.
+                self._write_main((channel << 4) | ChannelRegister.DAC, value)
         for value in write.control:
             self._write_status(value)
 

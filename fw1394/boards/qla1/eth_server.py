@@ -184,7 +184,9 @@ class Eth1394Server:
         #: The port a socket's datagrams are for; None: every cabled port.
         self._targets: dict[socket.socket, int | None] = {}
         self._local: dict[int, str] = {}
-        self._sockets: list[socket.socket] = []
+        #: Every socket, by file descriptor, registered once with the wait (a poll object).
+        self._by_fd: dict[int, socket.socket] = {}
+        self._wait = select.poll()
         self._running = True
         exclusive = not self.share_port
         hint = SHARE_OPTION
@@ -208,7 +210,9 @@ class Eth1394Server:
         except OSError:
             self.close()
             raise
-        self._sockets = list(self._targets)
+        for sock in self._targets:
+            self._by_fd[sock.fileno()] = sock
+            self._wait.register(sock, select.POLLIN)
 
     @property
     def addresses(self) -> list[str]:
@@ -219,33 +223,40 @@ class Eth1394Server:
         return time.monotonic() - self.epoch
 
     def step(self, timeout: float) -> None:
-        """Wait at most ``timeout`` s for datagrams; answer them and any timers due."""
+        """Wait at most ``timeout`` s for datagrams; answer them and any timers due.
+
+        The wait blocks in the kernel (poll) until a datagram comes: no CPU is spent
+        while the host is busy, at the price of the scheduler's wake-up on each
+        datagram. Each readable socket gives one datagram per step; more waiting
+        behind it make the next poll return at once.
+        """
         due = self.rack.next_deadline()
         if due is not None:
             timeout = max(0.0, min(timeout, due - self.now()))
-        readable, _, _ = select.select(self._sockets, [], [], timeout)
+        ready = self._wait.poll(1000.0 * timeout)
         replies: list[tuple[int, Reply]] = []
-        for sock in readable:
-            replies += self._drain(sock)
-        replies += self.rack.poll(self.now())
+        for fd, _ in ready:
+            replies += self._receive(self._by_fd[fd])
+        if due is not None:
+            # Only a hub read waiting for its round has a deadline; one that starts
+            # waiting in this step is due later, and a round that completes answers
+            # its waiting reads itself.
+            replies += self.rack.poll(self.now())
         processed = self.now()
         for index, reply in replies:
             self.send_reply(index, reply, processed)
 
-    def _drain(self, sock: socket.socket) -> list[tuple[int, Reply]]:
-        replies: list[tuple[int, Reply]] = []
-        while True:
-            try:
-                payload, sender = sock.recvfrom(MAX_DATAGRAM)
-            except (BlockingIOError, InterruptedError):
-                return replies
-            self.stats.received += 1
-            now = self.now()
-            index = self._targets[sock]
-            if index is None:
-                replies += self.rack.receive_everywhere(payload, sender, now)
-            else:
-                replies += self.rack.receive(index, payload, sender, now)
+    def _receive(self, sock: socket.socket) -> list[tuple[int, Reply]]:
+        try:
+            payload, sender = sock.recvfrom(MAX_DATAGRAM)
+        except (BlockingIOError, InterruptedError):
+            return []
+        self.stats.received += 1
+        now = self.now()
+        index = self._targets[sock]
+        if index is None:
+            return self.rack.receive_everywhere(payload, sender, now)
+        return self.rack.receive(index, payload, sender, now)
 
     def send_reply(self, index: int, reply: Reply, processed: float) -> None:
         """Send ``reply`` through the unicast socket of board ``index`` (stats, refusals)."""
@@ -276,7 +287,7 @@ class Eth1394Server:
             sock.close()
         self._targets.clear()
         self._unicast.clear()
-        self._sockets.clear()
+        self._by_fd.clear()
 
     def __enter__(self) -> Eth1394Server:
         return self

@@ -43,7 +43,7 @@ from fw1394.boards.qla1.firewire import (
     hub_broadcast,
     is_hub_query,
 )
-from fw1394.boards.qla1.paths import ETHERNET_PATH, zero_crc_bytes
+from fw1394.boards.qla1.paths import ETHERNET_PATH, zero_crc_block_response, zero_crc_bytes
 from fw1394.boards.qla1.regs import (
     HUB_MEMORY_BASE,
     BoardRegister,
@@ -66,6 +66,7 @@ from fw1394.packets.asynchronous import tcode_of
 from fw1394.packets.enums import TCode
 from fw1394.packets.eth1394 import (
     Eth1394Error,
+    Eth1394Request,
     ExtraBytes,
 )
 from fw1394.packets.eth1394_fast import extra_bytes, split_request
@@ -76,6 +77,8 @@ from fw1394.packets.nodeid import node_id as node_id_of
 HostAddress = tuple[str, int]
 #: What an offset reaches over this path (no CSR window: only bits 15..0 arrive).
 _ethernet_address = functools.lru_cache(maxsize=4096)(ETHERNET_PATH.decoding.address)
+#: The request as a board's responder gets it (the host repeats the same few requests).
+_for_board = functools.lru_cache(maxsize=4096)(ETHERNET_PATH.for_board)
 #: Quadlet 2 of the unasked broadcast-read response: the hub memory offset.
 BROADCAST_RESPONSE_Q2 = HUB_MEMORY_BASE
 #: ETH_STATUS write bit that clears the sticky error flags.
@@ -192,6 +195,12 @@ class EthernetPort:
             framed = split_request(payload)
         except Eth1394Error:
             return []
+        return self.receive_framed(framed, sender, now)
+
+    def receive_framed(
+        self, framed: Eth1394Request, sender: HostAddress, now: float
+    ) -> list[Action]:
+        """:meth:`receive` of a datagram split into control word and packet already."""
         stale = ETHERNET_PATH.stale_read(framed.packet)
         packet = stale if stale is not None else decode_request(framed.packet)
         if packet is None:
@@ -250,7 +259,7 @@ class EthernetPort:
         sender: HostAddress,
         now: float,
     ) -> list[Action]:
-        target = ETHERNET_PATH.for_board(packet, self.responder.node_id & BROADCAST_PHY)
+        target = _for_board(packet, self.responder.node_id & BROADCAST_PHY)
         if isinstance(target, BlockReadRequest) and self._hub_round_waiting(target):
             deadline = now + self.hub_read_wait
             self._pending.append(
@@ -271,9 +280,22 @@ class EthernetPort:
         now: float,
     ) -> list[Action]:
         reply = self.responder.receive_packet(target, now, damaged=False)
-        if reply.response is None or not isinstance(reply.response, Response):
+        response = reply.response
+        if response is None or not isinstance(response, Response):
             return []
-        response = ETHERNET_PATH.answer(reply.response, target, reply_node)
+        if _plain_block_response(response):
+            # The hub read of every bridge-mode cycle: its header is encoded once.
+            assert isinstance(response, BlockReadResponse)
+            source = ETHERNET_PATH.answer_source(target, reply_node)
+            raw = zero_crc_block_response(
+                response.destination_id,
+                response.tlabel,
+                response.source_id if source is None else source,
+                response.reserved,
+                response.data,
+            )
+            return [Reply(sender, raw, self._extra(no_forward), now)]
+        response = ETHERNET_PATH.answer(response, target, reply_node)
         if isinstance(response, QuadletReadResponse):
             self.last_read = response.quadlet_data
         return [Reply(sender, zero_crc_bytes(response), self._extra(no_forward), now)]
@@ -386,16 +408,14 @@ class EthernetPort:
         # The responder's space is a ClockedBoard: setting the time never goes back.
         self.responder.space.set_time(int(now * TICKS_PER_SECOND))
         data = self.board.broadcast_read_data() or b""
-        response = BlockReadResponse(
-            destination_id=target.requester,
-            tlabel=target.tlabel,
-            source_id=node_id_of(self.board.board_id),
-            reserved=BROADCAST_RESPONSE_Q2,
-            data=data,
+        response = zero_crc_block_response(
+            target.requester,
+            target.tlabel,
+            node_id_of(self.board.board_id),
+            BROADCAST_RESPONSE_Q2,
+            data,
         )
-        return Reply(
-            target.address, zero_crc_bytes(response), self._extra(True), target.received_at
-        )
+        return Reply(target.address, response, self._extra(True), target.received_at)
 
     # -- FireWire side and timers -----------------------------------------------------------
     def firewire_response(self, raw: bytes, now: float) -> list[Action]:
@@ -414,13 +434,42 @@ class EthernetPort:
         return self._round_progress(now) if self._pending else []
 
     def next_deadline(self) -> float | None:
-        return min((pending.deadline for pending in self._pending), default=None)
+        if not self._pending:
+            return None
+        return min(pending.deadline for pending in self._pending)
 
     def _extra(self, no_forward: bool, *, packet_dropped: bool = False) -> ExtraBytes:
-        return ExtraBytes(
-            bus_reset=self.firewire.resetting,
-            packet_dropped=packet_dropped,
-            summary_error=self.summary_error,
-            no_forward_echo=no_forward,
-            fpga_bus_generation=self.firewire.generation & 0xFF,
+        firewire = self.firewire
+        return _extra_bytes(
+            firewire.resetting,
+            packet_dropped,
+            self.summary_error,
+            no_forward,
+            firewire.generation & 0xFF,
         )
+
+
+# Every reply carries extra bytes, and they take few values: each is made once.
+@functools.lru_cache(maxsize=1024)
+def _extra_bytes(
+    bus_reset: bool, packet_dropped: bool, summary_error: bool, no_forward: bool, generation: int
+) -> ExtraBytes:
+    return ExtraBytes(
+        bus_reset=bus_reset,
+        packet_dropped=packet_dropped,
+        summary_error=summary_error,
+        no_forward_echo=no_forward,
+        fpga_bus_generation=generation,
+    )
+
+
+def _plain_block_response(response: Response) -> bool:
+    """A complete block read response with nothing else set: what
+    :func:`zero_crc_block_response` encodes."""
+    return type(response) is BlockReadResponse and response == BlockReadResponse(
+        destination_id=response.destination_id,
+        tlabel=response.tlabel,
+        source_id=response.source_id,
+        reserved=response.reserved,
+        data=response.data,
+    )

@@ -156,6 +156,19 @@ class HubState:
         self.blocks[board_id] = block
         self.last_update_tick = now
 
+    def keep_all(self, blocks: Sequence[tuple[int, HubBlock]], now: int) -> None:
+        """:meth:`keep` of every (board ID, block) of ``blocks`` in turn."""
+        update_ticks = now - self.query_tick
+        stored = self.blocks
+        for board_id, block in blocks:
+            if block.update_ticks != update_ticks:
+                block = replace(block, update_ticks=update_ticks)
+            if board_id in stored:
+                del stored[board_id]  # a newer block goes last, as a broadcast would
+            stored[board_id] = block
+        if blocks:
+            self.last_update_tick = now
+
     def store_broadcast(self, words: Sequence[int], now: int) -> None:
         """A board's broadcast: {sequence 31..16, quadlet count 7..0}, then its block."""
         if len(words) < 1 + STATUS + 1:
@@ -192,9 +205,11 @@ class HubState:
         # Each board's block has a fixed slot, after those of the lower-numbered
         # boards of the mask (hence 0x1803's lower-board mask): board order, not
         # arrival order, which is also the order the host parses.
-        for _, block in sorted(self.blocks.items()):
-            memory.append(layout.header(block, self.sequence))
-            memory.extend(layout.data(block))
+        header, data, sequence = layout.header, layout.data, self.sequence
+        for board_id in sorted(self.blocks):
+            block = self.blocks[board_id]
+            memory.append(header(block, sequence))
+            memory += data(block)
         if self.complete and layout.timing_bits:
             last_update = max(self.last_update_tick - self.query_tick, 0)
             memory.append(layout.timing(last_update, max(now - self.query_tick, 0)))

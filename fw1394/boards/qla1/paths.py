@@ -118,12 +118,18 @@ class Path:
         destination = node_id_of(responder_node, bus_of(packet.destination_id))
         return replace(packet, offset=offset, destination_id=destination)
 
+    def answer_source(self, request: Request, reply_node: int) -> int | None:
+        """The source ID a response to ``request`` leaves with from node ``reply_node``
+        over this path; None: the responder's own."""
+        if self.response_crcs:
+            return None
+        # The Ethernet path names {destination bus of the request, reply node}.
+        return node_id_of(reply_node, bus_of(request.destination_id))
+
     def answer(self, response: Response, request: Request, reply_node: int) -> Response:
         """``response`` as it leaves over this path, from node ``reply_node``."""
-        if self.response_crcs:
-            return response
-        # The Ethernet path names {destination bus of the request, reply node}.
-        return replace(response, source_id=node_id_of(reply_node, bus_of(request.destination_id)))
+        source = self.answer_source(request, reply_node)
+        return response if source is None else replace(response, source_id=source)
 
 
 @functools.lru_cache(maxsize=8192)
@@ -157,6 +163,43 @@ def zero_crc_bytes(response: Response) -> bytes:
     if isinstance(response, BlockReadResponse):
         raw[-4:] = _NO_CRC
     return bytes(raw)
+
+
+def zero_crc_block_response(
+    destination_id: int, tlabel: int, source_id: int, reserved: int, data: bytes
+) -> bytes:
+    """:func:`zero_crc_bytes` of the complete :class:`BlockReadResponse` carrying ``data``.
+
+    The header of a response depends on its addresses, label and length only: it is
+    encoded once for each of them (the hub answers the same host with the same few
+    labels and sizes every cycle) and the data put behind it as it is.
+    """
+    if len(data) % 4:
+        return zero_crc_bytes(
+            BlockReadResponse(
+                destination_id=destination_id,
+                tlabel=tlabel,
+                source_id=source_id,
+                reserved=reserved,
+                data=data,
+            )
+        )
+    head = _block_response_head(destination_id, tlabel, source_id, reserved, len(data))
+    return b"".join((head, data, _NO_CRC))
+
+
+@functools.lru_cache(maxsize=1024)
+def _block_response_head(
+    destination_id: int, tlabel: int, source_id: int, reserved: int, length: int
+) -> bytes:
+    response = BlockReadResponse(
+        destination_id=destination_id,
+        tlabel=tlabel,
+        source_id=source_id,
+        reserved=reserved,
+        data=bytes(length),
+    )
+    return zero_crc_bytes(response)[: _HEADER_CRC.stop]
 
 
 #: The FireWire link (FireWire.v): the responder policy does all the screening.

@@ -37,6 +37,8 @@ from fw1394.boards.qla1.rack_fast import RackFastPath
 from fw1394.boards.qla1.rack_member import BusState, RackBoard, RackLink
 from fw1394.engine import JHU_FIRMWARE, Responder
 from fw1394.packets import BlockWriteRequest, Request, Response
+from fw1394.packets.eth1394 import Eth1394Error
+from fw1394.packets.eth1394_fast import split_request
 from fw1394.packets.fast import encode_packet
 from fw1394.packets.nodeid import BROADCAST_PHY
 from fw1394.packets.nodeid import node_id as node_id_of
@@ -85,6 +87,7 @@ class Rack:
                 else None
             )
             self.members.append(RackBoard(board, responder, port))
+        self._cabled = [(n, m.port) for n, m in enumerate(self.members) if m.port is not None]
         #: The one-pass path for the host's real-time cycle; None: every datagram is
         #: served the general way (the reference the tests hold it equal to).
         self.fast_path: RackFastPath | None = RackFastPath(self.members, firmware)
@@ -92,7 +95,7 @@ class Rack:
     @property
     def ports(self) -> list[tuple[int, EthernetPort]]:
         """(index, port) of the boards cabled to the host."""
-        return [(n, m.port) for n, m in enumerate(self.members) if m.port is not None]
+        return list(self._cabled)
 
     def bus_reset(self) -> None:
         """A FireWire bus reset: the generation moves on (node IDs stay as they are)."""
@@ -106,11 +109,15 @@ class Rack:
         port = self.members[index].port
         if port is None:
             return []
+        try:
+            framed = split_request(payload)
+        except Eth1394Error:
+            return []  # never "fresh": ignored
         if self.fast_path is not None and port.ethernet_hub:
-            replies = self.fast_path.bridge(payload, sender, now, self.bus.resetting)
+            replies = self.fast_path.bridge_framed(framed, sender, now, self.bus.resetting)
             if replies is not None:
                 return replies
-        return self._run(index, port.receive(payload, sender, now), now)
+        return self._run(index, port.receive_framed(framed, sender, now), now)
 
     def receive_everywhere(
         self, payload: bytes, sender: HostAddress, now: float
@@ -122,19 +129,25 @@ class Rack:
             if replies is not None:
                 return replies
         replies = []
-        for index, _ in self.ports:
+        for index, _ in self._cabled:
             replies += self.receive(index, payload, sender, now)
         return replies
 
     def poll(self, now: float) -> list[tuple[int, Reply]]:
         replies: list[tuple[int, Reply]] = []
-        for index, port in self.ports:
-            replies += self._run(index, port.poll(now), now)
+        for index, port in self._cabled:
+            actions = port.poll(now)
+            if actions:
+                replies += self._run(index, actions, now)
         return replies
 
     def next_deadline(self) -> float | None:
-        deadlines = [d for _, port in self.ports if (d := port.next_deadline()) is not None]
-        return min(deadlines, default=None)
+        soonest = None
+        for _, port in self._cabled:
+            due = port.next_deadline()
+            if due is not None and (soonest is None or due < soonest):
+                soonest = due
+        return soonest
 
     def _run(self, origin: int, actions: list[Action], now: float) -> list[tuple[int, Reply]]:
         queue: deque[tuple[int, Action]] = deque((origin, action) for action in actions)

@@ -35,6 +35,7 @@ import struct
 from collections.abc import Sequence
 
 from fw1394.boards.qla1.ethernet import EthernetPort, HostAddress, Reply, decode_request
+from fw1394.boards.qla1.hub import reporting_board
 from fw1394.boards.qla1.rack_member import RackBoard
 from fw1394.boards.qla1.regs import HUB_QUERY
 from fw1394.boards.qla1.rt_blocks import (
@@ -44,7 +45,7 @@ from fw1394.boards.qla1.rt_blocks import (
     split_rev8_write,
 )
 from fw1394.packets import BlockWriteRequest, QuadletWriteRequest
-from fw1394.packets.eth1394 import Eth1394Error
+from fw1394.packets.eth1394 import Eth1394Error, Eth1394Request
 from fw1394.packets.eth1394_fast import split_request
 from fw1394.packets.nodeid import BROADCAST_PHY, LOCAL_BUS
 from fw1394.packets.nodeid import node_id as node_id_of
@@ -112,13 +113,21 @@ class RackFastPath:
         for member, port in zip(self._members, self._ports, strict=True):
             port.last_host, port.host_id = sender, query.source_id
             member.responder.advance_clock(now)
-            member.board.write_quadlet(HUB_QUERY, value)
-        # Each board's own block, as its query stored it: what its broadcast carries.
-        blocks = [member.board.hub.blocks[member.board.board_id] for member in self._members]
+            member.board.take_query(value)
+        self._share_blocks()
+        return [(self._hub, self._ports[self._hub].answer_query(query, sender, now))]
+
+    def _share_blocks(self) -> None:
+        """Every board's block of this round, as its query stored it (what its broadcast
+        carries), kept by every other board's hub in the order the broadcasts come."""
+        blocks = []
+        for member in self._members:
+            hub = member.board.hub
+            block = hub.blocks[member.board.board_id]
+            blocks.append((reporting_board(block.quadlets), block))
         for n, member in enumerate(self._members):
             # Earlier boards' broadcasts were kept for this query, later ones arrive after it.
-            member.board.store_hub_blocks(blocks[:n] + blocks[n + 1 :])
-        return [(self._hub, self._ports[self._hub].answer_query(query, sender, now))]
+            member.board.keep_hub_blocks(blocks[:n] + blocks[n + 1 :])
 
     def _write(self, packet: BlockWriteRequest, sender: HostAddress, now: float) -> None:
         data = packet.data
@@ -144,6 +153,14 @@ class RackFastPath:
             framed = split_request(payload)
         except Eth1394Error:
             return None
+        return self.bridge_framed(framed, sender, now, resetting)
+
+    def bridge_framed(
+        self, framed: Eth1394Request, sender: HostAddress, now: float, resetting: bool
+    ) -> list[tuple[int, Reply]] | None:
+        """:meth:`bridge` of a datagram split into control word and packet already."""
+        if not self._bridge or resetting:
+            return None
         if framed.control.no_forward:
             return None
         packet = decode_request(framed.packet)
@@ -163,11 +180,9 @@ class RackFastPath:
             hub.last_host, hub.host_id = sender, packet.source_id
             for member in self._members:
                 member.responder.advance_clock(now)
-                member.board.write_quadlet(HUB_QUERY, value)
-            blocks = [member.board.hub.blocks[member.board.board_id] for member in self._members]
-            for n, member in enumerate(self._members):
-                # The forwarded broadcasts come in board-index order, each hub's own first.
-                member.board.store_hub_blocks(blocks[:n] + blocks[n + 1 :])
+                member.board.take_query(value)
+            # The forwarded broadcasts come in board-index order, each hub's own first.
+            self._share_blocks()
             return []
         if type(packet) is BlockWriteRequest and packet.offset == RT_WRITE_OFFSET:
             hub.last_host, hub.host_id = sender, packet.source_id

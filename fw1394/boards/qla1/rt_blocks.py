@@ -9,7 +9,7 @@ decoders here only say which registers to write; the board applies them.
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from typing import NamedTuple
 
 from fw1394.boards.qla1.regs import CHANNELS, DAC_BOARD_ID_SHIFT, DAC_VALID
 
@@ -48,9 +48,9 @@ def rt_write_quadlets(firmware: int) -> int:
     return CHANNELS + 2
 
 
-@dataclass(frozen=True)
-class RtSample:
-    """Everything a real-time read reports, in register form."""
+class RtSample(NamedTuple):
+    """Everything a real-time read reports, in register form (a tuple: a board samples
+    one every cycle)."""
 
     timestamp: int
     status: int
@@ -67,23 +67,25 @@ class RtSample:
 
 def rt_read_block(sample: RtSample, firmware: int) -> list[int]:
     """The real-time read block of ``firmware`` as a list of quadlets."""
-    groups = [sample.adc, sample.encoder_position, sample.encoder_period, sample.encoder_qtr1]
-    if firmware >= 7:
-        groups += [sample.encoder_qtr5, sample.encoder_running]
-    if firmware >= 8:
-        groups.append(sample.motor_status)
     block = [sample.timestamp, sample.status, sample.digital_input, sample.temperature]
-    for group in groups:
-        block.extend(group)
+    block += sample.adc
+    block += sample.encoder_position
+    block += sample.encoder_period
+    block += sample.encoder_qtr1
+    if firmware >= 7:
+        block += sample.encoder_qtr5
+        block += sample.encoder_running
+    if firmware >= 8:
+        block += sample.motor_status
     return block
 
 
 # -- block writes ---------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
-class RtWrite:
-    """Register writes a real-time block write asks of this board."""
+class RtWrite(NamedTuple):
+    """Register writes a real-time block write asks of this board (a tuple: a broadcast
+    write makes one for every board)."""
 
     dac_commands: tuple[tuple[int, int], ...] = ()  # (channel 1..15, value)
     control: tuple[int, ...] = ()  # values to apply as STATUS writes
@@ -116,8 +118,34 @@ def split_rev8_write(words: Sequence[int], start_index: int) -> dict[int, RtWrit
 
     Board ID -> its share; a board with no share is missing. The block chain
     does not depend on the board that follows it, so one walk serves them all:
-    a broadcast carrying N boards' blocks is read once, not N times.
+    a broadcast carrying N boards' blocks is read once, not N times, and block
+    by block (a slice each) rather than quadlet by quadlet. Where the translator
+    would meet address 0 again inside a block (a chain reaching round its 8-bit
+    address), the walk is left to :func:`_rev8_quadlets`.
     """
+    dacs: dict[int, list[tuple[int, int]]] = {}
+    control: dict[int, list[int]] = {}
+    total = len(words)
+    # Until the translator's address comes round to 0 no block has started.
+    position = -start_index & 0xFF
+    if position + total > _ADDRESS_SPAN:  # body slices are shorter than _CHANNEL_OF
+        return _split_by_quadlet(words, start_index)
+    while position < total:
+        header = words[position]
+        # A length of 0 reaches round the whole 8-bit address space.
+        length = header & 0xFF or _ADDRESS_SPAN
+        owner = (header >> 8) & 0xF
+        last = position + length - 1
+        body = words[position + 1 : min(last, total)]
+        if body:
+            dacs.setdefault(owner, []).extend(zip(_CHANNEL_OF, body, strict=False))
+        if length > 1 and last < total:
+            control.setdefault(owner, []).append(words[last])
+        position += length
+    return _shares(dacs, control)
+
+
+def _split_by_quadlet(words: Sequence[int], start_index: int) -> dict[int, RtWrite]:
     dacs: dict[int, list[tuple[int, int]]] = {}
     control: dict[int, list[int]] = {}
     for owner, channel, value in _rev8_quadlets(words, start_index):
@@ -125,10 +153,22 @@ def split_rev8_write(words: Sequence[int], start_index: int) -> dict[int, RtWrit
             control.setdefault(owner, []).append(value)
         else:
             dacs.setdefault(owner, []).append((channel, value))
+    return _shares(dacs, control)
+
+
+def _shares(
+    dacs: dict[int, list[tuple[int, int]]], control: dict[int, list[int]]
+) -> dict[int, RtWrite]:
     return {
         board: RtWrite(tuple(dacs.get(board, ())), tuple(control.get(board, ())))
         for board in dacs.keys() | control.keys()
     }
+
+
+#: The translator's addresses: 8 bits.
+_ADDRESS_SPAN = 0x100
+#: The DAC channel of the n-th quadlet after a block header: the low 4 bits of n + 1.
+_CHANNEL_OF = tuple((n + 1) & 0xF for n in range(_ADDRESS_SPAN))
 
 
 def _rev8_quadlets(words: Sequence[int], start_index: int) -> Iterator[tuple[int, int, int]]:

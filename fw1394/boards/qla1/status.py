@@ -12,6 +12,7 @@ write made with power off disables every amplifier.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from fw1394.boards.qla1.regs import (
     AMP_BITS,
@@ -38,9 +39,9 @@ DIGIN_MOTOR_SUPPLY = 1 << 28
 DIGIN_DOUT_SHIFT = 12
 
 
-@dataclass(frozen=True)
-class StatusCommand:
-    """What a STATUS write asked for, beyond the state changes it made."""
+class StatusCommand(NamedTuple):
+    """What a STATUS write asked for, beyond the state changes it made (a tuple: every
+    real-time write carries a STATUS write for each board)."""
 
     asks_for_power: bool  # power or an amplifier enable: clears the watchdog flag
     reboot: bool
@@ -59,9 +60,14 @@ class BoardControl:
     def amps_enabled(self) -> int:
         return ~self.amps_disabled & AMP_BITS
 
+    @property
+    def amps_on(self) -> int:
+        """The amplifiers driving their motors (bit n-1: channel n): enabled and powered."""
+        return self.amps_enabled if self.power_enable else 0
+
     def amp_on(self, channel: int) -> bool:
         """An amplifier drives its motor only when enabled and powered."""
-        return self.power_enable and bool(self.amps_enabled >> (channel - 1) & 1)
+        return bool(self.amps_on >> (channel - 1) & 1)
 
     def status(self, board_id: int, watchdog_timeout: bool) -> int:
         """STATUS as read; all flags the model does not simulate read as 0."""
@@ -72,8 +78,7 @@ class BoardControl:
             value |= STATUS_POWER_ENABLE | STATUS_MOTOR_VOLTAGE_GOOD
         if self.relay_on:
             value |= STATUS_RELAY_ON | STATUS_RELAY_FEEDBACK
-        amps_on = sum(1 << (n - 1) for n in range(1, CHANNELS + 1) if self.amp_on(n))
-        return value | amps_on << STATUS_AMP_ON_SHIFT | self.amps_enabled
+        return value | self.amps_on << STATUS_AMP_ON_SHIFT | self.amps_enabled
 
     def command(self, value: int) -> StatusCommand:
         """Apply a STATUS write."""
