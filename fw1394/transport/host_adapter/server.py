@@ -356,11 +356,15 @@ class Adapter:
         socket is readable or a timer is due."""
         poll, clock = self._poller.poll, _clock
         now = clock()
-        until = self._traffic + self._window
-        if now < until and now - self._checked >= CHECK_EVERY:
-            self._checked = now
-            self._enough = cores_enough(self._cpus)
-        if now < until and self._enough:
+        if self._window == math.inf:  # spin: always polls, and wakes for the timers
+            until, enough = min(self.host.next_wake(), now + _LONGEST_SLEEP), True
+        else:
+            until = self._traffic + self._window
+            if now < until and now - self._checked >= CHECK_EVERY:
+                self._checked = now
+                self._enough = cores_enough(self._cpus)
+            enough = self._enough
+        if now < until and enough:
             pause = self._yield
             while True:
                 events = poll(0)
