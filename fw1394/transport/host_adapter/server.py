@@ -436,19 +436,7 @@ class Adapter:
     def _reply(self, client: Client, reply: Reply) -> None:
         host = self.host
         phy = host.phy_id
-        reply = Reply(
-            reply.request,
-            reply.status,
-            host.generation,
-            NO_PHY if phy is None else phy,
-            reply.ack,
-            reply.rcode,
-            reply.outcome_unknown,
-            reply.reason,
-            reply.detail,
-            reply.data,
-        )
-        message = reply.pack()
+        message = reply.pack(host.generation, NO_PHY if phy is None else phy)
         sock = client.sock
         try:
             sent = sock.send(message)
