@@ -184,3 +184,27 @@ def test_a_node_that_never_answers_fails_no_ack_and_the_loop_goes_on(bus: Adapte
         assert again["status"] == OK and again["data"] == b"\x00\x00\x01\x00"
     finally:
         client.close()
+
+
+@pytest.mark.process
+def test_late_copies_of_earlier_answers_never_end_a_later_read() -> None:
+    # The node sends a share of its answers twice and delays a share: one blocking
+    # read after another (the express path) may meet a copy of an earlier answer,
+    # with the same label, before its own.
+    options = ("--duplicate", "0.3", "--delay", "0.3", "--delay-time", "0.0005")
+    with adapter_bus("late-copies", 1, node_options=options) as bus:
+        client = Client(bus)
+        try:
+            node = client.nodes()[0]
+            words = [struct.pack(">I", 0x1394_0000 + k) for k in range(32)]
+            for k, word in enumerate(words):
+                assert (
+                    client.ask(WRITE, node=node, offset=4 * k, quadlet=1, data=word)["status"] == OK
+                )
+            got = [
+                client.ask(READ, node=node, offset=4 * (k % 32), quadlet=1)["data"]
+                for k in range(400)
+            ]
+            assert got == [words[k % 32] for k in range(400)]
+        finally:
+            client.close()

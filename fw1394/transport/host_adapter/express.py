@@ -54,6 +54,15 @@ from fw1394.transport.link import ACK, ASYNC_PACKET
 from fw1394.transport.sansio.wire import FrameHeader
 
 _pack_ack = ACK_FRAME_FORMAT.pack
+_unpack_ack = ACK_FRAME_FORMAT.unpack_from
+
+
+def _acked(payload: bytes) -> int:
+    """The sequence number of the frame an ack frame's ``payload`` acks."""
+    sequence: int = _unpack_ack(payload)[3]
+    return sequence
+
+
 _COMPLETE = ACK_BYTES[AckCode.ack_complete]
 _OFFSET_LIMIT = 1 << 48
 _ROUTE = ("destination_id", "tlabel", "source_id", "offset")
@@ -89,6 +98,8 @@ class Flight(Generic[Owner]):
     #: The request's fields after the route, to make its packet at a handover.
     values: tuple[int | bytes, ...]
     generation: int
+    #: The frame sequence number the request went out in: its ack names it.
+    sequence: int
     #: When it is handed to the requester if nothing came: its ack timeout.
     deadline: float
 
@@ -164,6 +175,7 @@ class Express(Generic[Owner]):
             expected,
             values,
             station.generation,
+            sequence,
             sent + requester.ack_timeout,
         )
         return True
@@ -181,6 +193,9 @@ class Express(Generic[Owner]):
             and len(payload) >= ACK_FRAME_SIZE
             and payload[1] == flight.label
             and header.generation == flight.generation == self.station.generation
+            # An ack names the request frame it acks: one naming another (the answer
+            # to a copy of an earlier request) is the general path's to drop.
+            and _acked(payload) == flight.sequence
         ):
             response_class = flight.kind[2]
             if response_class is WriteResponse:
