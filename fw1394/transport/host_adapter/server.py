@@ -260,13 +260,6 @@ class AdapterHost(BusHost):
         # Unsolicited responses and stray acks: nobody here asks for them.
         self._other_events.clear()
 
-    def serve(self) -> None:
-        """Take every queued frame, run every due timer; never waits."""
-        now = time.monotonic()
-        self.take_frames(now)
-        self._timers_due = 0.0
-        self.keep_timers(now)
-
     def finished(self, tid: int) -> object | None:
         return self._finished.pop(tid, None)
 
