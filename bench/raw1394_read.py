@@ -4,6 +4,7 @@
     python bench/raw1394_read.py --rounds 4 --reads 500 --json
     python bench/raw1394_read.py --rt          # the JHU-style loop, 4 boards
     nice -n 10 python bench/raw1394_read.py --rt --rounds 6 --before main
+    python bench/raw1394_read.py --rt --idle block   # no process polls: CPU of the work alone
 
 
 Starts a bus of one memory board with its host adapter (in a private runtime
@@ -22,6 +23,12 @@ baseline) and once on this checkout, in a fresh bus each, alternating which goes
 first (ABAB), and prints the per-round ratio this / REF.
 The machine this runs on may be shared: compare ratios of one run, not
 absolute times across runs.
+
+Every process of the bench (nodes, adapter, the C program through the library)
+waits as ``FW1394_IDLE`` says (``--idle`` sets it): adaptive by default, polling
+for a while after traffic while every runnable task has a CPU, which on a loaded
+machine means blocking. CPU per transaction is reported for the adapter, the
+nodes and the program; under a polling strategy it includes the polling.
 """
 
 from __future__ import annotations
@@ -30,6 +37,7 @@ import argparse
 import contextlib
 import json
 import os
+import resource
 import shutil
 import statistics
 import subprocess
@@ -42,6 +50,8 @@ from pathlib import Path
 from fw1394.host.adapter_port import AdapterPort
 from fw1394.raw1394.launch import environment
 from fw1394.transport.host_adapter.server import adapter_pid, wait_adapter
+from fw1394.transport.media.idle import ENVIRONMENT as IDLE_VARIABLE
+from fw1394.transport.media.idle import default_idle, parse_idle
 from fw1394.transport.sansio.config import BusConfig
 from fw1394.transport.supervision.launch import LaunchedBus
 
@@ -144,9 +154,9 @@ def cpu_seconds(pid: int | None) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
-def rt_round(root: Path, reads: int) -> tuple[float, float, float]:
+def rt_round(root: Path, reads: int) -> tuple[float, float, float, float]:
     """One real-time round on a fresh bus with fw1394 from ``root``: cycles/s and
-    the adapter's and the nodes' CPU microseconds per transaction."""
+    the CPU microseconds per transaction of the adapter, the nodes and the program."""
     env = {**os.environ, "PYTHONPATH": str(root)}
     script = [sys.executable, __file__, "--rt", "--rounds", "1", "--reads", str(reads), "--json"]
     done = subprocess.run(script, env=env, capture_output=True, text=True, timeout=600)
@@ -158,29 +168,33 @@ def rt_round(root: Path, reads: int) -> tuple[float, float, float]:
         report["cycles_per_second"][0],
         report["adapter_cpu_us_per_transaction"][0],
         report["node_cpu_us_per_transaction"][0],
+        report.get("program_cpu_us_per_transaction", [0.0])[0],  # older benches: none
     )
 
 
 def compare(ref: str, rounds: int, reads: int) -> int:
     with checkout(ref) as before:
         sides = {"before": before, "after": HERE}
-        runs: dict[str, list[tuple[float, float, float]]] = {"before": [], "after": []}
+        runs: dict[str, list[tuple[float, float, float, float]]] = {"before": [], "after": []}
         print(f"real-time loop, 4 boards: {ref} (before) vs this checkout (after)")
-        print("cycles/s, then CPU us per transaction of the adapter and of all nodes")
+        print(f"waiting: {IDLE_VARIABLE}={default_idle()} (shared machine)")
+        print("cycles/s, then CPU us per transaction of the adapter / all nodes / the program")
         for number in range(rounds):
             order = ["before", "after"] if number % 2 == 0 else ["after", "before"]
             for side in order:
                 runs[side].append(rt_round(sides[side], reads))
-            (b_hz, b_adapter, b_nodes), (a_hz, a_adapter, a_nodes) = (
+            (b_hz, b_adapter, b_nodes, b_program), (a_hz, a_adapter, a_nodes, a_program) = (
                 runs["before"][-1],
                 runs["after"][-1],
             )
             print(
-                f"round {number}: before {b_hz:.0f} Hz {b_adapter:.0f}/{b_nodes:.0f} us, "
-                f"after {a_hz:.0f} Hz {a_adapter:.0f}/{a_nodes:.0f} us, "
-                f"rate after/before {a_hz / b_hz:.2f} (load {os.getloadavg()[0]:.1f})"
+                f"round {number}: before {b_hz:.0f} Hz {b_adapter:.0f}/{b_nodes:.0f}/"
+                f"{b_program:.0f} us, after {a_hz:.0f} Hz {a_adapter:.0f}/{a_nodes:.0f}/"
+                f"{a_program:.0f} us, rate after/before {a_hz / b_hz:.2f} "
+                f"(load {os.getloadavg()[0]:.1f})"
             )
-    for index, what in enumerate(("cycles/s", "adapter CPU us/transaction", "node CPU us")):
+    whats = ("cycles/s", "adapter CPU us/transaction", "node CPU us", "program CPU us")
+    for index, what in enumerate(whats):
         before_values = [run[index] for run in runs["before"]]
         after_values = [run[index] for run in runs["after"]]
         ratios = [a / b for a, b in zip(after_values, before_values, strict=True) if b]
@@ -199,7 +213,19 @@ def main() -> int:
     parser.add_argument("--json", action="store_true")
     parser.add_argument("--rt", action="store_true", help="the real-time loop, 4 boards")
     parser.add_argument("--before", metavar="REF", help="--rt against git REF, interleaved")
+    parser.add_argument(
+        "--idle",
+        metavar="STRATEGY",
+        help=f"how every process waits (sets {IDLE_VARIABLE}: block, spin, adaptive[:US])",
+    )
     args = parser.parse_args()
+    if args.idle is not None:
+        try:
+            parse_idle(args.idle)
+        except ValueError as error:
+            print(f"raw1394_read bench: --idle: {error}", file=sys.stderr)
+            return 2
+        os.environ[IDLE_VARIABLE] = args.idle
     if args.before:
         return compare(args.before, args.rounds, args.reads)
     if shutil.which("gcc") is None:
@@ -218,8 +244,9 @@ def main() -> int:
         config, boards, board="memory", root=work / "fw1394", node_arguments=("--adapter",)
     )
     rows = []
-    #: Per real-time round: CPU microseconds per transaction of the adapter, of all nodes.
-    cpu_us: list[tuple[float, float]] = []
+    #: Per real-time round: CPU microseconds per transaction of the adapter, of all
+    #: nodes, of the program.
+    cpu_us: list[tuple[float, float, float]] = []
     try:
         with bus:
             bus.wait_members()
@@ -233,6 +260,7 @@ def main() -> int:
                 for _ in range(args.rounds):
                     cycles = args.reads // 4
                     spent = cpu_seconds(adapter), sum(map(cpu_seconds, nodes))
+                    children = resource.getrusage(resource.RUSAGE_CHILDREN)
                     out = subprocess.run(
                         [str(program), str(cycles), str(boards)],
                         env=env,
@@ -240,11 +268,15 @@ def main() -> int:
                         text=True,
                         check=True,
                     )
+                    waited = resource.getrusage(resource.RUSAGE_CHILDREN)
+                    program_cpu = waited.ru_utime - children.ru_utime
+                    program_cpu += waited.ru_stime - children.ru_stime
                     transactions = 2 * boards * cycles
                     cpu_us.append(
                         (
                             1e6 * (cpu_seconds(adapter) - spent[0]) / transactions,
                             1e6 * (sum(map(cpu_seconds, nodes)) - spent[1]) / transactions,
+                            1e6 * program_cpu / transactions,
                         )
                     )
                     rows.append((0.0, 0.0, float(out.stdout)))
@@ -259,18 +291,29 @@ def main() -> int:
     if args.rt:
         rates = [r for _, _, r in rows]
         if args.json:
-            report = {"boards": boards, "cycles_per_second": rates, "goal": 1000}
-            report["adapter_cpu_us_per_transaction"] = [a for a, _ in cpu_us]
-            report["node_cpu_us_per_transaction"] = [n for _, n in cpu_us]
+            report: dict[str, object] = {
+                "boards": boards,
+                "cycles_per_second": rates,
+                "goal": 1000,
+                "idle": str(default_idle()),
+                "adapter_cpu_us_per_transaction": [a for a, _, _ in cpu_us],
+                "node_cpu_us_per_transaction": [n for _, n, _ in cpu_us],
+                "program_cpu_us_per_transaction": [p for _, _, p in cpu_us],
+            }
             print(json.dumps(report))
         else:
             print("real-time loop through libraw1394: per cycle one 64-byte block read and one")
             print(f"16-byte block write to each of {boards} boards (shared machine)")
+            print(f"waiting: {IDLE_VARIABLE}={default_idle()}, load {os.getloadavg()[0]:.1f}")
             print("cycles/s per round: " + ", ".join(f"{r:.0f}" for r in rates))
             print(f"median: {statistics.median(rates):.0f} cycles/s (goal >= 1000)")
-            adapter_us = statistics.median(a for a, _ in cpu_us)
-            node_us = statistics.median(n for _, n in cpu_us)
-            print(f"CPU per transaction: adapter {adapter_us:.0f} us, nodes {node_us:.0f} us")
+            adapter_us = statistics.median(a for a, _, _ in cpu_us)
+            node_us = statistics.median(n for _, n, _ in cpu_us)
+            program_us = statistics.median(p for _, _, p in cpu_us)
+            print(
+                f"CPU per transaction: adapter {adapter_us:.0f} us, nodes {node_us:.0f} us, "
+                f"program {program_us:.0f} us"
+            )
         return 0
     ratios = [r for _, _, r in rows]
     summary = {

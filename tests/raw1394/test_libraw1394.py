@@ -272,3 +272,53 @@ def test_library_has_debians_soname_and_exports(cache: Path) -> None:
     # Every function Debian's library offers programs (its raw1394_* exports), no more.
     assert dynamic_symbols(library) == dynamic_symbols(debian)
     assert len(dynamic_symbols(library)) == 68
+
+
+#: Blocking block writes and reads to every node, each read checked against the write.
+ROUND_TRIPS = r"""
+#include <stdio.h>
+#include <string.h>
+#include <libraw1394/raw1394.h>
+int main(void)
+{
+    raw1394handle_t h = raw1394_new_handle_on_port(0);
+    quadlet_t out[4], in[4];
+    int cycle, node, nodes;
+    if (!h) { perror("raw1394_new_handle_on_port"); return 1; }
+    nodes = raw1394_get_nodecount(h) - 1; /* the adapter, highest, is the last */
+    for (cycle = 0; cycle < 200; cycle++)
+        for (node = 0; node < nodes; node++) {
+            memset(out, cycle * 7 + node, sizeof out);
+            if (raw1394_write(h, 0xFFC0 | node, 0x40, sizeof out, out) < 0 ||
+                raw1394_read(h, 0xFFC0 | node, 0x40, sizeof in, in) < 0) {
+                perror("transaction"); return 1;
+            }
+            if (memcmp(in, out, sizeof in)) { printf("FAIL cycle %d\n", cycle); return 1; }
+        }
+    printf("done %d\n", nodes);
+    raw1394_destroy_handle(h);
+    return 0;
+}
+"""
+
+
+def test_every_way_of_waiting_for_a_reply_gets_the_right_one(cache: Path, tmp_path: Path) -> None:
+    """FW1394_IDLE decides how a blocking call waits (polling first, or not); none of
+    the ways may lose or mix up a reply, and a value the library does not know is
+    one line on stderr, then the default."""
+    source = tmp_path / "round_trips.c"
+    source.write_text(ROUND_TRIPS)
+    program = tmp_path / "round_trips"
+    subprocess.run(["gcc", "-Wall", "-o", str(program), str(source), "-lraw1394"], check=True)
+    with adapter_bus("waiting", 2) as bus:
+        for idle in ("block", "spin", "adaptive:40", "Adaptive", "sometimes"):
+            done = subprocess.run(
+                run_command(bus, cache, str(program)),
+                env={**env(bus, cache), "FW1394_IDLE": idle},
+                capture_output=True,
+                text=True,
+                timeout=120,
+            )
+            assert (done.returncode, done.stdout) == (0, "done 2\n"), (idle, done.stderr)
+            complaint = [line for line in done.stderr.splitlines() if "FW1394_IDLE" in line]
+            assert len(complaint) == (idle == "sometimes"), (idle, done.stderr)

@@ -191,14 +191,15 @@ class Reply:
     detail: str = ""
     data: bytes = b""
 
-    def pack(self) -> bytes:
-        """The frame (length prefix and :data:`REPLY`)."""
+    def pack(self, generation: int | None = None, phy: int | None = None) -> bytes:
+        """The frame (length prefix and :data:`REPLY`); ``generation`` and ``phy``, when
+        given, in place of the reply's own (the adapter's state as it sends)."""
         reason, detail, data = self.reason.encode(), self.detail[:0xFFFF].encode(), self.data
         head = _REPLY_HEAD.pack(
             self.request,
             self.status,
-            self.generation & 0xFFFFFFFF,
-            self.phy,
+            (self.generation if generation is None else generation) & 0xFFFFFFFF,
+            self.phy if phy is None else phy,
             self.ack,
             self.rcode,
             self.outcome_unknown,

@@ -45,6 +45,7 @@ from fw1394.packets.enums import AckCode
 from fw1394.packets.tcodes import RESPONSE_TCODES
 from fw1394.transport.bus_host import BusError, BusHost, StaleGenerationError
 from fw1394.transport.copies import HostLink
+from fw1394.transport.host_adapter.express import Express
 from fw1394.transport.host_adapter.protocol import (
     CHOSEN,
     NONE,
@@ -61,6 +62,7 @@ from fw1394.transport.host_adapter.protocol import (
 )
 from fw1394.transport.host_adapter.services import NodeServices, is_request
 from fw1394.transport.link import ACK, ACK_BYTES, ACK_SIZE, ASYNC_PACKET
+from fw1394.transport.media.idle import CHECK_EVERY, cores_enough
 from fw1394.transport.sansio.config import BusConfig
 from fw1394.transport.sansio.membership import Timing
 from fw1394.transport.sansio.wire import ACK_PAYLOAD, NO_PHY, FrameHeader, pack_table
@@ -74,6 +76,8 @@ PID_FILE = "adapter.pid"
 _LONGEST_SLEEP = 0.05
 #: A client that does not take its replies within this long is dropped.
 _SEND_TIMEOUT = 2.0
+_TIMER_GRANULARITY = 0.001
+_clock = time.monotonic
 
 
 @dataclass
@@ -107,15 +111,45 @@ class Client:
     #: The protocol version agreed in ``hello``; None before it.
     version: int | None = None
 
+    def __post_init__(self) -> None:
+        #: The socket's descriptor, kept: a closed socket forgets it.
+        self.fd = self.sock.fileno()
+
+
+#: Who asked for a transaction: the client, and its request number.
+Asked = tuple[Client, int]
+
 
 class AdapterLink(HostLink):
-    """The host's link, which first hands raw sends the answers meant for them."""
+    """The host's link, which first hands raw sends the answers meant for them.
+
+    The acks it owes for the responses it takes wait in :attr:`acks` until the
+    adapter has sent its clients the replies those responses end
+    (:meth:`send_acks`): no node waits for the ack of a response, while the
+    program waiting for the reply is the next step of the bus's work. They still
+    go out before any request read after them.
+    """
 
     def __init__(self, host: BusHost) -> None:
-        super().__init__(host.requester, host.station.send, host.station)
+        self._send_frame = host.station.send
+        super().__init__(host.requester, self._send_or_hold, host.station)
         self.raw: dict[int, RawSend] = {}  # by the frame sequence number it went out in
         #: Requests other nodes address to the adapter's own node go here.
         self.on_request: Callable[[FrameHeader, bytes], None] | None = None
+        #: Acks of responses taken, to go out after the replies: (destination, payload).
+        self.acks: list[tuple[int, bytes]] = []
+
+    def _send_or_hold(self, kind: int, destination: int, payload: bytes) -> int | None:
+        if kind == ACK:
+            self.acks.append((destination, payload))
+            return None
+        return self._send_frame(kind, destination, payload)
+
+    def send_acks(self) -> None:
+        acks, self.acks = self.acks, []
+        send = self._send_frame
+        for destination, payload in acks:
+            send(ACK, destination, payload)
 
     def take(self, header: FrameHeader, payload: bytes, now: float) -> None:
         if self.raw and self._for_raw(header, payload):
@@ -161,6 +195,11 @@ class AdapterHost(BusHost):
         self.link.on_reset = self._on_reset
         self.link.on_progress = self._collect
         self._flush_requests = self.link.flush
+        #: Told of each express flight handed to the engine: its transaction id, its owner.
+        self.on_adopt: Callable[[int, Asked], None] = lambda tid, owner: None
+        self.express: Express[Asked] = Express(
+            self, link, lambda tid, owner: self.on_adopt(tid, owner)
+        )
 
     @property
     def bus_socket(self) -> socket.socket:
@@ -170,28 +209,53 @@ class AdapterHost(BusHost):
         due = min(self.link.due, self.station.wake_by)
         deadline = self.requester.next_deadline()
         if deadline is not None:
-            due = min(due, deadline)
+            # The engine's timers are looked at once a millisecond (keep_timers).
+            due = min(due, max(deadline, self._timers_due))
         for pending in self.raw.values():
             due = min(due, pending.deadline)
+        if self.express.flight is not None:
+            due = min(due, self.express.flight.deadline)
         return due
 
-    def serve(self) -> None:
-        """Take every queued frame, run every due timer; never waits."""
-        station, link, requester = self.station, self.link, self.requester
-        now = time.monotonic()
+    def take_frames(self, now: float) -> bool:
+        """Take every frame queued on the bus socket (never waits); whether any of
+        them was a data frame (bus management expects no answer)."""
+        link, station, express = self.link, self.station, self.express
+        taken = False
         for header, payload in station.catch_up():
-            link.receive(header, payload, now)
+            taken = True
+            if express.flight is None or not express.take(header, payload, now):
+                link.receive(header, payload, now)
+        flight = express.flight
+        if flight is not None and flight.generation != station.generation:
+            express.adopt()  # the engine fails it with the reset, as its own
         link.apply_changes()
-        # An answer frees a label: a request queued for one goes out now, not at the
-        # next timer (a concatenated response does not flush the link by itself).
+        # An answer frees a label: a request queued for one goes out now.
         self._flush_requests()
+        return taken
+
+    def keep_timers(self, now: float) -> None:
+        """Run the station's timers and the engine's when they are due."""
+        link, station, express = self.link, self.station, self.express
+        if express.flight is not None and (
+            now >= express.flight.deadline or now >= link.due or now >= station.wake_by
+        ):
+            # No answer in its ack timeout, or the station's timers may reset the bus:
+            # the engine takes over (and its timers are looked at now).
+            express.adopt()
+            self._timers_due = 0.0
         if now >= link.due or now >= station.wake_by:
             link.service(now)
-        due = requester.next_deadline()
-        if due is not None and now >= due:
-            requester.handle_timer(now)
-            self._flush_requests()
-            self._collect()
+        if now >= self._timers_due:
+            # Engine timeouts are tens of milliseconds and up: looking at them once a
+            # millisecond is precise enough and keeps the heap off the per-packet path.
+            self._timers_due = now + _TIMER_GRANULARITY
+            requester = self.requester
+            due = requester.next_deadline()
+            if due is not None and now >= due:
+                requester.handle_timer(now)
+                self._flush_requests()
+                self._collect()
         self._served_at = now
         # Unsolicited responses and stray acks: nobody here asks for them.
         self._other_events.clear()
@@ -213,39 +277,100 @@ class Adapter:
         self.path = path
         self.listener = _listen(path)
         self.clients: dict[socket.socket, Client] = {}
-        self.pending: dict[int, tuple[Client, int]] = {}  # transaction -> client, request
+        self.pending: dict[int, Asked] = {}  # transaction -> client, request
         #: Transactions of clients that left before they ended: their ends are dropped.
         self.orphans: set[int] = set()
         self.stopping = False
         self.services = NodeServices(self)
         host.adapter_link.on_request = self.services.from_bus
+        host.on_adopt = self._adopted
+        self._poller = select.epoll()
+        self._poller.register(self.listener, select.EPOLLIN)
+        self._by_fd: dict[int, Client] = {}
+        # How the adapter waits: the bus's idle strategy (fw1394.transport.media.idle),
+        # polling for a window after traffic while every runnable task has a core.
+        self._window = host.station.idle.window
+        self._traffic = -math.inf
+        self._checked = -math.inf
+        self._enough = True
+        self._cpus = os.cpu_count() or 1
+        self._yield: Callable[[], None] = getattr(os, "sched_yield", lambda: None)
 
     def close(self) -> None:
         for sock in self.clients:
             sock.close()
         self.listener.close()
+        self._poller.close()
         with contextlib.suppress(FileNotFoundError):
             self.path.unlink()
         self.host.close()
 
     def run(self) -> None:
         host = self.host
+        poller = self._poller
+        listener = self.listener.fileno()
+        by_fd = self._by_fd
+        bus = host.bus_socket
+        poller.register(bus, select.EPOLLIN)
         while not self.stopping:
-            wait = min(_LONGEST_SLEEP, max(0.0, host.next_wake() - time.monotonic()))
-            watched = [host.bus_socket, self.listener, *self.clients]
-            try:
-                readable, _, _ = select.select(watched, [], [], wait)
-            except InterruptedError:
-                continue
-            host.serve()
+            if host.bus_socket is not bus:  # a medium that moved to a new socket
+                with contextlib.suppress(OSError):
+                    poller.unregister(bus)
+                bus = host.bus_socket
+                poller.register(bus, select.EPOLLIN)
+            events = self._wait()
+            now = _clock()
+            # The bus first: a reset it reports decides which requests read below are stale.
+            bus_fd = bus.fileno()
+            if (not events or any(fd == bus_fd for fd, _ in events)) and host.take_frames(now):
+                self._traffic = now
             self.services.after_serve()
-            if self.listener in readable:
-                self._accept()
-            for sock in readable:
-                client = self.clients.get(sock)
+            if host._finished or host.raw or host.express.ended:
+                self._answer_finished()
+            # The programs have their replies; now the acks of the responses they ended.
+            if host.adapter_link.acks:
+                host.adapter_link.send_acks()
+            waiting = by_fd.get
+            for fd, _ in events:
+                client = waiting(fd)
                 if client is not None:
                     self._read(client)
-            self._answer_finished()
+                    self._traffic = now
+                elif fd == listener:
+                    self._accept()
+            if host._finished or host.raw or host.express.ended or host.adapter_link.acks:
+                self._answer_finished()
+                host.adapter_link.send_acks()
+            host.keep_timers(now)
+
+    def _wait(self) -> list[tuple[int, int]]:
+        """What is readable: at once while there was traffic within the idle window
+        (polled, yielding the CPU between polls), else after blocking until some
+        socket is readable or a timer is due."""
+        poll, clock = self._poller.poll, _clock
+        now = clock()
+        if self._window == math.inf:  # spin: always polls, and wakes for the timers
+            until, enough = min(self.host.next_wake(), now + _LONGEST_SLEEP), True
+        else:
+            until = self._traffic + self._window
+            if now < until and now - self._checked >= CHECK_EVERY:
+                self._checked = now
+                self._enough = cores_enough(self._cpus)
+            enough = self._enough
+        if now < until and enough:
+            pause = self._yield
+            while True:
+                events = poll(0)
+                if events or clock() >= until:
+                    break
+                pause()
+            if events:
+                return events
+        wait = min(_LONGEST_SLEEP, max(0.0, self.host.next_wake() - clock()))
+        try:
+            return poll(wait)
+        except InterruptedError:
+            return []
 
     # -- clients ----------------------------------------------------------------------
     def _accept(self) -> None:
@@ -253,13 +378,20 @@ class Adapter:
             sock, _ = self.listener.accept()
         except OSError:
             return
-        sock.settimeout(_SEND_TIMEOUT)
-        self.clients[sock] = Client(sock)
+        sock.setblocking(False)
+        client = Client(sock)
+        self.clients[sock] = client
+        self._by_fd[sock.fileno()] = client
+        self._poller.register(sock, select.EPOLLIN)
 
     def _drop(self, client: Client) -> None:
         if self.clients.pop(client.sock, None) is None:
             return
-        client.sock.close()
+        flight = self.host.express.flight
+        if flight is not None and flight.owner[0] is client:
+            self.host.express.adopt()  # and so orphaned below
+        self._by_fd.pop(client.fd, None)
+        client.sock.close()  # which takes it out of the poller too
         self.services.dropped(client)
         self.orphans |= {t for t, p in self.pending.items() if p[0] is client}
         self.pending = {t: p for t, p in self.pending.items() if p[0] is not client}
@@ -270,6 +402,8 @@ class Adapter:
     def _read(self, client: Client) -> None:
         try:
             data = client.sock.recv(1 << 16)
+        except (BlockingIOError, InterruptedError):
+            return
         except OSError:
             data = b""
         if not data:
@@ -295,20 +429,22 @@ class Adapter:
     def _reply(self, client: Client, reply: Reply) -> None:
         host = self.host
         phy = host.phy_id
-        reply = Reply(
-            reply.request,
-            reply.status,
-            host.generation,
-            NO_PHY if phy is None else phy,
-            reply.ack,
-            reply.rcode,
-            reply.outcome_unknown,
-            reply.reason,
-            reply.detail,
-            reply.data,
-        )
+        message = reply.pack(host.generation, NO_PHY if phy is None else phy)
+        sock = client.sock
         try:
-            client.sock.sendall(reply.pack())
+            sent = sock.send(message)
+        except (BlockingIOError, InterruptedError):
+            sent = 0
+        except OSError:
+            self._drop(client)
+            return
+        if sent == len(message):
+            return
+        # The client's socket is full: it has _SEND_TIMEOUT to take the rest.
+        try:
+            sock.settimeout(_SEND_TIMEOUT)
+            sock.sendall(message[sent:])
+            sock.setblocking(False)
         except OSError:
             self._drop(client)
 
@@ -332,22 +468,37 @@ class Adapter:
     # -- requests ---------------------------------------------------------------------
     def _handle(self, client: Client, request: Request) -> None:
         host = self.host
+        op = request.op
+        express = host.express
+        if express.flight is not None and op is not Op.read and op is not Op.write:
+            express.adopt()  # whatever this request does, the engine knows of the flight
         try:
-            if request.op is Op.info:
+            if op is Op.info:
                 host.wait_ready()
                 table = pack_table(host.members)
                 self._reply(client, Reply(request.request, Status.ok, data=table))
                 return
-            if request.op is Op.hello:
+            if op is Op.hello:
                 raise ValueError("hello comes once, first")
             # Pinned: a request whose generation has ended is never sent (its
             # physical ID may be another node's now).
             with host.addressed_in(request.generation):
-                if request.op is Op.send:
+                if op is Op.send:
                     self._send(client, request)
                     return
                 if self.services.handle(client, request):
                     return
+                if (op is Op.read or op is Op.write) and express.start(
+                    (client, request.request),
+                    op is Op.write,
+                    request.quadlet,
+                    request.node,
+                    request.offset,
+                    request.length,
+                    request.data,
+                ):
+                    return
+                express.adopt()
                 tid = self._start(request)
         except StaleGenerationError as error:
             addressed = STALE.pack(request.generation)
@@ -395,8 +546,17 @@ class Adapter:
             expects_response=tcode is not None and tcode not in RESPONSE_TCODES,
         )
 
+    def _adopted(self, tid: int, owner: Asked) -> None:
+        self.pending[tid] = owner
+
     def _answer_finished(self) -> None:
         host = self.host
+        express = host.express
+        if express.ended:
+            ended, express.ended = express.ended, []
+            for owner, data in ended:
+                client, number = owner
+                self._reply(client, Reply(number, Status.ok, data=data))
         for tid in [t for t in self.orphans if t in host._finished]:
             host.finished(tid)
             self.orphans.discard(tid)
