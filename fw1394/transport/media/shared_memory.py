@@ -156,6 +156,9 @@ OWNERLESS_LOOKS = 8
 HOLD_LIMIT = 2.0
 RECORD_SIZE = _RECORD.size
 _CHECKED = RECORD_SIZE - 4  # the header bytes the CRC covers before the frame
+#: Those bytes packed on their own (the record's fields but its CRC).
+_CHECKED_FIELDS = struct.Struct(_RECORD.format[:-1])
+assert _CHECKED_FIELDS.size == _CHECKED
 PAD = 0xFFFF_FFFF
 #: Room for slots: 63 members and their taps and tools, with spares.
 SLOTS = 256
@@ -171,7 +174,7 @@ RING_SIZE = 1 << 22
 SEGMENT_SIZE = RING_OFFSET + RING_SIZE
 #: The largest frame a record holds (a UDP datagram's payload, as on the UDP medium).
 MAX_FRAME = 65_507
-_NONE_ARMED = bytes(SLOTS)
+_ARMED = b"\x01"
 #: A writer at the head overwrites at most this far ahead of it.
 _LARGEST_RECORD = (RECORD_SIZE + MAX_FRAME + 7) & ~7
 _ACK = int(FrameKind.ack)
@@ -180,6 +183,7 @@ _SENDER = slice(SENDER_OFFSET, SENDER_OFFSET + 4)
 _TAG = slice(TAG_OFFSET, TAG_OFFSET + 4)
 _PREFIX = slice(0, len(HEADER_PREFIX))
 _crc = zlib.crc32
+_time_ns = time.time_ns
 
 
 def _network_namespace() -> int:
@@ -355,8 +359,23 @@ class SharedMedium:
 
     def _lock(self) -> None:
         """Take the writers' lock: a POSIX semaphore, no system call while it is free."""
-        while not self._try_lock():
-            self._follow()
+        if not self._take_free_lock():
+            while not self._try_lock():
+                self._follow()
+
+    def _take_free_lock(self) -> bool:
+        """The common case of :meth:`_lock`: the lock free and this segment the bus's.
+        False: nothing taken, the general way must wait or follow."""
+        try:
+            self._sem.acquire(0)
+        except posix_ipc.BusyError:
+            return False
+        mm = self._mm
+        if _HEAD.unpack_from(mm, _RETIRED_AT)[0]:
+            self._sem.release()
+            return False
+        _OWNER.pack_into(mm, _OWNER_AT, self._pid)
+        return True
 
     def _try_lock(self) -> bool:
         """Take this segment's lock; False (not holding it) when the bus moved on."""
@@ -524,42 +543,47 @@ class SharedMedium:
         self._tap = True
         self._set_slot(0, _NO_PHY, MODE_TAP, False)
 
-    def _wants(self, frame: bytes) -> bool:
-        if len(frame) < HEADER_SIZE or frame[_PREFIX] != HEADER_PREFIX or frame[_TAG] != self._tag:
-            return False
-        if self._tap:
-            return True
-        return (
-            self._accepts[frame[DESTINATION_OFFSET]] == 1
-            and frame[_SENDER] != self._member
-            and not (self._drop_acks and frame[KIND_OFFSET] == _ACK)
-        )
-
     # -- writing ----------------------------------------------------------------------
     def send(self, frame: bytes) -> None:
         length = len(frame)
         if length > MAX_FRAME:
             return  # no datagram carries it either: lost, as on the wire
-        self._lock()
-        mm = self._mm
+        if not self._take_free_lock():
+            self._lock()
+        mm = self._mm  # another one if the bus moved on while this member waited
         try:
-            head = before = self._writable_head()
+            # Written out here rather than in helpers: a quadlet read puts three
+            # frames on the bus, and a Python call costs as much as a field packed.
+            head = _HEAD.unpack_from(mm, _HEAD_AT)[0]
             offset = head % RING_SIZE
+            if _HEAD.unpack_from(mm, RING_OFFSET + offset)[0] == head:
+                # Most likely a record a writer that died did not count: look closely.
+                head = self._writable_head()
+                offset = head % RING_SIZE
+            before = head
             room = RING_SIZE - offset
-            need = _align(RECORD_SIZE + length)
+            need = (RECORD_SIZE + length + 7) & ~7
             if room < need:
                 if room >= RECORD_SIZE:
                     self._write_record(head, offset, b"", PAD)
                 head += room
                 offset = 0
-            self._write_record(head, offset, frame, length)
+            at = RING_OFFSET + offset
+            stamp = _time_ns()
+            mm[at + RECORD_SIZE : at + RECORD_SIZE + length] = frame
+            crc = _crc(frame, _crc(_CHECKED_FIELDS.pack(head, stamp, length)))
+            _RECORD.pack_into(mm, at, head, stamp, length, crc)
             _HEAD.pack_into(mm, _HEAD_AT, head + need)
             if self._cursor == before:
                 self._cursor = head + need  # its own frame: no reader of it here
-            armed = mm[_ARMED_AT:_SLOTS_AT]
-            ring = () if armed == _NONE_ARMED else self._disarm_addressed(armed, frame)
+            ring = (
+                ()
+                if mm.find(_ARMED, _ARMED_AT, _SLOTS_AT) < 0
+                else self._disarm_addressed(mm[_ARMED_AT:_SLOTS_AT], frame)
+            )
         finally:
-            self._unlock()
+            _OWNER.pack_into(mm, _OWNER_AT, 0)
+            self._sem.release()
         for slot in ring:
             # Gone (its slot is free again), or rung already and not yet awake.
             with contextlib.suppress(OSError):
@@ -598,8 +622,8 @@ class SharedMedium:
         stamp = time.time_ns()
         mm = self._mm
         mm[at + RECORD_SIZE : at + RECORD_SIZE + len(frame)] = frame
-        checked = _RECORD.pack(position, stamp, length, 0)[:_CHECKED]
-        _RECORD.pack_into(mm, at, position, stamp, length, _crc(frame, _crc(checked)))
+        crc = _crc(frame, _crc(_CHECKED_FIELDS.pack(position, stamp, length)))
+        _RECORD.pack_into(mm, at, position, stamp, length, crc)
 
     def _disarm_addressed(self, armed: bytes, frame: bytes) -> list[int]:
         mm = self._mm
@@ -649,15 +673,28 @@ class SharedMedium:
                 if self._stalled():
                     continue
                 return None
-            retired = _HEAD.unpack_from(mm, _RETIRED_AT)[0]
-            if retired and cursor >= retired - 1:
+            if _HEAD.unpack_from(mm, _RETIRED_AT)[0] and cursor >= self._retired() - 1:
                 self._follow()  # written after the bus moved on: a stale writer's
                 continue
             if length == PAD:
                 self._cursor = cursor + room
                 continue
-            self._cursor = cursor + _align(RECORD_SIZE + length)
-            if self._wants(frame):
+            self._cursor = cursor + ((RECORD_SIZE + length + 7) & ~7)
+            # Address recognition (see filter_as_member), written out: it runs for
+            # every frame of the bus.
+            if (
+                length >= HEADER_SIZE
+                and frame[_PREFIX] == HEADER_PREFIX
+                and frame[_TAG] == self._tag
+                and (
+                    self._tap
+                    or (
+                        self._accepts[frame[DESTINATION_OFFSET]] == 1
+                        and frame[_SENDER] != self._member
+                        and not (self._drop_acks and frame[KIND_OFFSET] == _ACK)
+                    )
+                )
+            ):
                 self._stamp = stamp
                 return frame
 
@@ -685,14 +722,17 @@ class SharedMedium:
     def _arm(self) -> bool:
         """Ask to be rung for the next frame for this reader; False: one may be there."""
         index = _ARMED_AT + self._slot
-        self._lock()
+        if not self._take_free_lock():
+            self._lock()
+        mm = self._mm
         try:
-            self._mm[index] = 1
-            quiet = self._head() <= self._cursor
+            mm[index] = 1
+            quiet: bool = _HEAD.unpack_from(mm, _HEAD_AT)[0] <= self._cursor
             if not quiet:
-                self._mm[index] = 0
+                mm[index] = 0
         finally:
-            self._unlock()
+            _OWNER.pack_into(mm, _OWNER_AT, 0)
+            self._sem.release()
         return quiet
 
     def _sleep(self, seconds: float) -> bool:
