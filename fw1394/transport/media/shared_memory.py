@@ -238,7 +238,6 @@ def _align(size: int) -> int:
     return (size + 7) & ~7
 
 
-
 def _fresh_header() -> bytes:
     """A new segment's header: an empty ring, no owner, a new incarnation."""
     return bytes(
@@ -253,6 +252,7 @@ def _fresh_header() -> bytes:
             }
         )
     )
+
 
 class SharedMedium:
     """The bus as a ring in shared memory, with the same calls as the UDP medium.
