@@ -6,6 +6,7 @@
     python bench/bus.py --mac      # what the keyed MAC costs per frame and per read
     python bench/bus.py --syscalls # CPU per sendto / recv: the floor of a read's CPU
     python bench/bus.py --mechanisms   # transports compared, shared memory included
+    python bench/bus.py --doorbells    # the shared medium's wake-ups: datagram vs semaphore
     python bench/bus.py --idle block   # every process of the run blocks in recv
     python bench/bus.py --pin      # this process on one CPU, its peers on the others
 
@@ -43,6 +44,8 @@ from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from functools import partial
 from typing import Any
+
+import posix_ipc
 
 from fw1394.experiments.frame_floor import FrameFloor
 from fw1394.experiments.regime import Regime, same_regime, settle, settle_time, switches
@@ -393,8 +396,78 @@ def lock_pair_us(count: int = 20000) -> float:
         return round((time.perf_counter() - start) / count * 1e6, 3)
 
 
+def doorbell_round_trips(kind: str, count: int) -> dict[str, Any]:
+    """A sleeper woken and waking back, ``count`` times, by the shared medium's two
+    doorbells: ``datagram`` (an empty datagram to a Unix socket, what a member that
+    selects is rung with) or ``semaphore`` (a POSIX semaphore, a futex: what a
+    member blocked in its own receive waits on). Both ends block; p50 of a round
+    trip and the CPU (user + kernel) each end spends per round trip."""
+    if kind == "semaphore":
+        name = f"/fw1394-bench-{os.getpid()}"
+        here, there = (
+            posix_ipc.Semaphore(f"{name}-{end}", posix_ipc.O_CREX, 0o600, 0) for end in "ab"
+        )
+        for bell in (here, there):
+            bell.unlink()  # the forked child keeps them open
+        ring_there, ring_here = there.release, here.release
+
+        def wait_here() -> None:
+            here.acquire(1.0)
+
+        def wait_there() -> None:
+            there.acquire(1.0)
+
+    else:
+        sockets = [socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM) for _ in range(3)]
+        for end, sock in zip("ab", sockets, strict=False):
+            sock.bind(f"\0fw1394-bench-{os.getpid()}-{end}".encode())
+        ringer = sockets[2]
+        here_name, there_name = (sock.getsockname() for sock in sockets[:2])
+
+        def ring_there() -> None:
+            ringer.sendto(b"", there_name)
+
+        def ring_here() -> None:
+            ringer.sendto(b"", here_name)
+
+        def wait_here() -> None:
+            sockets[0].recv(16)
+
+        def wait_there() -> None:
+            sockets[1].recv(16)
+
+    def answer() -> None:
+        while True:
+            wait_there()
+            ring_here()
+
+    def once() -> None:
+        ring_there()
+        wait_here()
+
+    pid = _forked(answer)
+    try:
+        timed(once, 500)
+        result: dict[str, Any] = percentiles(timed(once, count))
+        result["cpu_us"] = cpu_per_call(once, count, pid)
+        return result
+    finally:
+        os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+
+
+def doorbells(count: int) -> dict[str, Any]:
+    """The two doorbells alternated over three rounds each, on the same minutes."""
+    results: dict[str, list[dict[str, Any]]] = {"datagram": [], "semaphore": []}
+    for _ in range(3):
+        for kind, rounds in results.items():
+            rounds.append(doorbell_round_trips(kind, count))
+    return {"idle": "block", "rounds": results}
+
+
 def mechanisms(count: int) -> dict[str, Any]:
     results: dict[str, Any] = {
+        "doorbells": doorbells(count),
         "unicast": raw_ping_pong(count),
         "hub_relay": hub_relay(count),
         "shared_memory_2_frames": shared_memory_ping_pong(count, 2),
@@ -820,6 +893,12 @@ def main() -> int:
         "without filter)",
     )
     parser.add_argument(
+        "--doorbells",
+        action="store_true",
+        help="the shared medium's two doorbells (Unix datagram, POSIX semaphore): "
+        "round trip and CPU of a blocked sleeper woken",
+    )
+    parser.add_argument(
         "--syscalls",
         action="store_true",
         help="CPU per sendto and recv on the bus, and the CPU floor of a quadlet read",
@@ -835,6 +914,9 @@ def main() -> int:
         return 0
     if args.syscalls:
         print(json.dumps(syscall_costs(5 if args.quick else 40), indent=1))
+        return 0
+    if args.doorbells:
+        print(json.dumps(doorbells(2000 if args.quick else 10000), indent=1))
         return 0
     if args.mechanisms:
         print(json.dumps(mechanisms(2000 if args.quick else 5000), indent=1))
