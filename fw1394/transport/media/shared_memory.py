@@ -62,9 +62,11 @@ and read about 2 µs of Python in all (``bench/bus.py --mechanisms``).
 its slot: under the lock it sets its byte in the armed table and reads the
 head; if the head moved past its cursor it does not sleep. A writer, under
 the same lock, publishes its record and then reads the armed table; every
-armed member the frame is addressed to is disarmed and rung (a datagram to
-its Unix socket in the abstract namespace, named after the segment's
-incarnation and the slot). The lock orders the two: either the writer's
+armed member the frame is addressed to is disarmed and rung: a post of its
+slot's POSIX semaphore when it waits in its own receive (a futex wake-up,
+cheaper than a datagram's), or a datagram to its Unix socket in the abstract
+namespace when its owner selects on :attr:`SharedMedium.sock`; both are
+named after the segment's incarnation and the slot. The lock orders the two: either the writer's
 record precedes the reader's look at the head, or the reader's arm precedes
 the writer's look at the table, so no wake-up is lost, and an unaddressed
 member is never woken. A member's slot is its own while its doorbell socket
