@@ -24,7 +24,6 @@ from fw1394.experiments.timing import TargetError
 from fw1394.host.bus_port import BusPort
 from fw1394.jhu.client import EthUdpClient
 from fw1394.transport.bus_host import BusError, TransactionError
-from fw1394.transport.media.choice import medium_name
 from fw1394.transport.supervision.runtime import bus_dir, read_nodes
 
 QUADLET_OFFSET = 0
@@ -86,8 +85,6 @@ class BusTarget:
         return {
             "kind": self.kind,
             "bus": self.port.config.name,
-            # FW1394_MEDIUM picks it: run the bench once per medium to compare them.
-            "medium": medium_name(self.port.config),
             "node": self.node,
             "board": self.board,
             "writes_acknowledged": True,
