@@ -19,6 +19,8 @@ from polling import wait_until
 
 from fw1394.transport.media.idle import BLOCK
 from fw1394.transport.media.shared_memory import (
+    _ARMED_AT,
+    _SLOTS_AT,
     RING_SIZE,
     SharedMedium,
     segment_path,
@@ -155,6 +157,9 @@ def test_a_member_asleep_in_receive_is_rung_when_the_bus_moves_and_follows_it() 
     sleeper.start()
     try:
         assert asleep.poll(30) and asleep.recv() == "ready"
+        # Armed (about to sleep, or asleep) before the holder takes the lock: armed
+        # later, it would find the holder stopped itself and move the bus unrung.
+        wait_until(lambda: any(writer._mm[_ARMED_AT:_SLOTS_AT]), timeout=30)
         holder.start()
         pid = holder.pid
         assert pid is not None
