@@ -36,7 +36,6 @@ _unpack_ack = ACK_PAYLOAD.unpack_from
 #: Sequence numbers remembered per sender: a copy later than this many newer frames
 #: of the same sender is taken for a copy too (it can only be very late).
 WINDOW = 4096
-_MASK = (1 << WINDOW) - 1
 _SEQUENCE = 0xFFFFFFFF
 _HALF = 1 << 31
 
@@ -44,32 +43,52 @@ _HALF = 1 << 31
 class RecentFrames:
     """Which (sender, sequence) frames were taken, over the last :data:`WINDOW` per sender."""
 
-    __slots__ = ("_senders",)
+    __slots__ = ("_highest", "_marks")
 
     def __init__(self) -> None:
-        #: sender member id -> (highest sequence taken, bit k: highest - k taken).
-        self._senders: dict[int, tuple[int, int]] = {}
+        #: sender member id -> the highest sequence number taken.
+        self._highest: dict[int, int] = {}
+        #: sender member id -> which were taken: the mark of sequence s is byte
+        #: s % WINDOW, for the WINDOW sequences up to the highest. A ring of bytes
+        #: rather than one integer of WINDOW bits: an answer moves it on by a byte,
+        #: where shifting the integer copies all 512 of its bytes.
+        self._marks: dict[int, bytearray] = {}
 
     def again(self, sender: int, sequence: int) -> bool:
         """Whether frame ``sequence`` of ``sender`` came before; records it if not."""
-        known = self._senders.get(sender)
-        if known is None:
-            self._senders[sender] = (sequence, 1)
+        highest = self._highest.get(sender)
+        if highest is None:
+            marks = self._marks[sender] = bytearray(WINDOW)
+            marks[sequence % WINDOW] = 1
+            self._highest[sender] = sequence
             return False
-        highest, taken = known
+        marks = self._marks[sender]
         # Sequence numbers are 32 bits and wrap: compared as serial numbers (RFC 1982).
         ahead = (sequence - highest) & _SEQUENCE
         if 0 < ahead < _HALF:
-            self._senders[sender] = (sequence, (taken << ahead | 1) & _MASK)
+            if ahead >= WINDOW:
+                marks[:] = bytes(WINDOW)
+            elif ahead > 1:
+                # The sequences skipped over leave the window's far end unmarked.
+                start, end = (highest + 1) % WINDOW, sequence % WINDOW
+                if start <= end:
+                    marks[start:end] = bytes(end - start)
+                else:
+                    marks[start:] = bytes(WINDOW - start)
+                    marks[:end] = bytes(end)
+            marks[sequence % WINDOW] = 1
+            self._highest[sender] = sequence
             return False
         back = (highest - sequence) & _SEQUENCE
-        if back >= WINDOW or taken >> back & 1:
+        index = sequence % WINDOW
+        if back >= WINDOW or marks[index]:
             return True
-        self._senders[sender] = (highest, taken | 1 << back)
+        marks[index] = 1
         return False
 
     def forget(self, sender: int) -> None:
-        self._senders.pop(sender, None)
+        self._highest.pop(sender, None)
+        self._marks.pop(sender, None)
 
 
 class HostLink(RequesterLink):

@@ -13,7 +13,7 @@ from collections.abc import Iterator
 
 import pytest
 from adapter_support import AdapterBus, adapter_bus
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 
 from fw1394.engine import ReadCompleted, TransactionFailed
@@ -40,6 +40,33 @@ def word(k: int) -> int:
     )
 )
 def test_a_frame_is_new_exactly_once(frames: list[tuple[int, int]]) -> None:
+    check_once(frames)
+
+
+#: Moves of a sender's sequence numbers: small ones, a third of the window, and
+#: about a window forward or back (to where the window's far end just was).
+STEPS = st.one_of(
+    st.integers(-3, 3),
+    st.integers(-1500, 1500),
+    st.integers(WINDOW - 3, WINDOW + 3),
+    st.integers(-WINDOW - 3, -WINDOW + 3),
+)
+
+
+@given(st.lists(st.tuples(st.integers(1, 2), STEPS), max_size=300))
+# A jump of more than a window, and back to a number whose mark's byte was used a lap before:
+@example([(1, 10), (1, WINDOW + 3), (1, -3)])
+# The same with jumps inside the window, the last one short of the ring's end and across it:
+@example([(1, 100), (1, 1900), (1, 2150), (1, 150), (1, -104)])
+@example([(1, 4000), (1, 1000), (1, 3200), (1, -104)])
+def test_a_frame_is_new_exactly_once_as_the_window_slides(steps: list[tuple[int, int]]) -> None:
+    """Sequence numbers that climb and fall back by every size of step: the window
+    laps several times, over the marks of earlier laps."""
+    at = {1: 0, 2: 0}
+    frames = []
+    for sender, step in steps:
+        at[sender] = max(0, at[sender] + step)
+        frames.append((sender, at[sender]))
     check_once(frames)
 
 

@@ -17,7 +17,10 @@ import pytest
 from bus_support import bus_name
 from polling import wait_until
 
+from fw1394.transport.media.idle import BLOCK
 from fw1394.transport.media.shared_memory import (
+    _ARMED_AT,
+    _SLOTS_AT,
     RING_SIZE,
     SharedMedium,
     segment_path,
@@ -123,3 +126,56 @@ def test_a_stopped_lock_holder_is_left_behind_and_cannot_write_into_the_new_bus(
         for medium in (tap, late, writer):
             medium.close()
     assert process.exitcode == 0
+
+
+def _sleeper(name: str, pipe: multiprocessing.connection.Connection) -> None:
+    medium = SharedMedium(BusConfig(name, key=b""), poll_interval=30.0, idle=BLOCK)
+    medium.filter_as_member(member_id=7, phy_id=3, drop_acks=False)
+    pipe.send("ready")
+    raw = medium.receive()  # one wait of up to 30 s: only a ring ends it sooner
+    pipe.send((raw, medium.moves, medium.wakeups))
+    medium.close()
+
+
+def _holder(name: str, pipe: multiprocessing.connection.Connection) -> None:
+    medium = SharedMedium(BusConfig(name, key=b""))
+    medium._lock()
+    pipe.send("holding")
+    os.kill(os.getpid(), signal.SIGSTOP)
+    medium._unlock()
+    medium.close()
+
+
+def test_a_member_asleep_in_receive_is_rung_when_the_bus_moves_and_follows_it() -> None:
+    config = BusConfig(bus_name("shm-move-sleep"), key=b"")
+    writer = SharedMedium(config)
+    writer.filter_as_member(member_id=5, phy_id=1, drop_acks=False)
+    asleep, sleeper_end = _CONTEXT.Pipe()
+    sleeper = _CONTEXT.Process(target=_sleeper, args=(config.name, sleeper_end))
+    holding, holder_end = _CONTEXT.Pipe()
+    holder = _CONTEXT.Process(target=_holder, args=(config.name, holder_end))
+    sleeper.start()
+    try:
+        assert asleep.poll(30) and asleep.recv() == "ready"
+        # Armed (about to sleep, or asleep) before the holder takes the lock: armed
+        # later, it would find the holder stopped itself and move the bus unrung.
+        wait_until(lambda: any(writer._mm[_ARMED_AT:_SLOTS_AT]), timeout=30)
+        holder.start()
+        pid = holder.pid
+        assert pid is not None
+        assert holding.poll(30) and holding.recv() == "holding"
+        wait_until(lambda: process_stopped(pid), timeout=30)
+        # The sleeper waits on the old segment's doorbell; the frame goes on the new
+        # one: only the move's ring of every sleeper sends it there in time.
+        writer.send(frame(config.tag, 5, 10))
+        assert asleep.poll(20), "the sleeper was not rung when the bus moved"
+        raw, moves, wakeups = asleep.recv()
+        assert (raw, moves) == (frame(config.tag, 5, 10), 1)
+        assert wakeups in (1, 2)  # the move's ring, and maybe the frame's in the new ring
+    finally:
+        if holder.pid is not None:
+            os.kill(holder.pid, signal.SIGCONT)
+            holder.join(30)
+        sleeper.join(30)
+        writer.close()
+    assert (holder.exitcode, sleeper.exitcode) == (0, 0)

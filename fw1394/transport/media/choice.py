@@ -6,7 +6,7 @@ semantics (``docs/virtual-bus.md``, "Media"). Every bus uses the UDP medium
 bus that lives on one host on
 :class:`~fw1394.transport.media.shared_memory.SharedMedium`: measured on the
 two-core development machine, interleaved in the same rounds, the ring was
-slower than UDP and cost more CPU per read (``docs/virtual-bus.md``,
+no faster than UDP and cost as much CPU per read (``docs/virtual-bus.md``,
 "Performance"), so the default goes by that measurement. Every member of one
 bus must use the same medium.
 """
