@@ -21,6 +21,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
+from fractions import Fraction
 
 import crcmod
 from construct import GreedyBytes, Int8ub, Int16ub, Int32ub, Int64ub, Struct
@@ -208,7 +209,8 @@ def _quadlets(text: bytes) -> list[int]:
 
 def cycle_timer(elapsed: float) -> int:
     """The CYCLE_TIME register ``elapsed`` seconds after the cycle master started."""
-    ticks = int(elapsed * CYCLES_PER_SECOND * TICKS_PER_CYCLE)
+    # Exact: a float product rounds up across a tick boundary for some times (1.15 s).
+    ticks = int(Fraction(elapsed) * CYCLES_PER_SECOND * TICKS_PER_CYCLE)
     cycles, offset = divmod(ticks, TICKS_PER_CYCLE)
     seconds, cycle = divmod(cycles, CYCLES_PER_SECOND)
     return (seconds & 0x7F) << 25 | cycle << 12 | offset
