@@ -64,10 +64,11 @@ _OFFSET_LIMIT = 1 << 48
 _QUADLET_LIMIT = 1 << 32
 #: Node IDs are 16 bits; the largest, all ones, is the local broadcast.
 _LAST_NODE = BROADCAST_ID
-#: A request kind: its wire bytes from the route and its own fields; the packet
-#: object the requester would have made of the same values, should the general path
-#: take over; and the response class that ends it (a write: WriteResponse, which
-#: the express path takes as "ended by ack_complete alone").
+#: A request kind (also used by the host adapter's express path): its wire bytes from
+#: the route and its own fields; the packet object the requester would have made of
+#: the same values, should the general path take over; and the response class that
+#: ends it (a write: WriteResponse, which the express path takes as "ended by
+#: ack_complete alone").
 Kind = tuple[Callable[..., bytes], Callable[..., Request], type[AsyncPacket]]
 _ROUTE = ("destination_id", "tlabel", "source_id", "offset")
 
@@ -76,10 +77,10 @@ def _kind(cls: type[Request], response: type[AsyncPacket], *names: str) -> Kind:
     return wire_builder(cls, *_ROUTE, *names), builder(cls, *_ROUTE, *names), response
 
 
-_READ_QUADLET = _kind(QuadletReadRequest, QuadletReadResponse)
-_READ_BLOCK = _kind(BlockReadRequest, BlockReadResponse, "data_length")
-_WRITE_QUADLET = _kind(QuadletWriteRequest, WriteResponse, "quadlet_data")
-_WRITE_BLOCK = _kind(BlockWriteRequest, WriteResponse, "data")
+READ_QUADLET = _kind(QuadletReadRequest, QuadletReadResponse)
+READ_BLOCK = _kind(BlockReadRequest, BlockReadResponse, "data_length")
+WRITE_QUADLET = _kind(QuadletWriteRequest, WriteResponse, "quadlet_data")
+WRITE_BLOCK = _kind(BlockWriteRequest, WriteResponse, "data")
 
 
 class Express:
@@ -95,7 +96,7 @@ class Express:
 
     def read_quadlet(self, node: int, offset: int) -> int:
         if self.open and 0 <= node <= _LAST_NODE and 0 <= offset < _OFFSET_LIMIT:
-            data = self._run(node, _READ_QUADLET, -1, offset)
+            data = self._run(node, READ_QUADLET, -1, offset)
             if data is not None:
                 return int.from_bytes(data)
         host = self.host
@@ -105,7 +106,7 @@ class Express:
         limit = MAX_BLOCK_READ - self.station.trailer_size
         plain = 0 <= node <= _LAST_NODE and 0 <= offset < _OFFSET_LIMIT and 0 <= length <= limit
         if self.open and plain:
-            data = self._run(node, _READ_BLOCK, length, offset, length)
+            data = self._run(node, READ_BLOCK, length, offset, length)
             if data is not None:
                 return data
         host = self.host
@@ -114,7 +115,7 @@ class Express:
     def write_quadlet(self, node: int, offset: int, value: int) -> None:
         plain = 0 <= node <= _LAST_NODE and 0 <= offset < _OFFSET_LIMIT
         plain = plain and 0 <= value < _QUADLET_LIMIT
-        if not (self.open and plain) or self._run(node, _WRITE_QUADLET, -1, offset, value) is None:
+        if not (self.open and plain) or self._run(node, WRITE_QUADLET, -1, offset, value) is None:
             host = self.host
             _data(host.wait(host.start_write_quadlet(node, offset, value)))
 
@@ -123,7 +124,7 @@ class Express:
         plain = 0 <= node <= _LAST_NODE and 0 <= offset < _OFFSET_LIMIT and len(data) <= limit
         if (
             not (self.open and plain)
-            or self._run(node, _WRITE_BLOCK, -1, offset, bytes(data)) is None
+            or self._run(node, WRITE_BLOCK, -1, offset, bytes(data)) is None
         ):
             host = self.host
             _data(host.wait(host.start_write_block(node, offset, data)))

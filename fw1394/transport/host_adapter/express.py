@@ -32,24 +32,13 @@ from dataclasses import dataclass
 from typing import Generic, TypeVar
 
 from fw1394.engine.requester import concatenated_data
-from fw1394.packets import (
-    AckCode,
-    AsyncPacket,
-    BlockReadRequest,
-    BlockReadResponse,
-    BlockWriteRequest,
-    QuadletReadRequest,
-    QuadletReadResponse,
-    QuadletWriteRequest,
-    Request,
-    WriteResponse,
-)
+from fw1394.packets import AckCode, WriteResponse
 from fw1394.packets.ack import ACK_BYTES
-from fw1394.packets.fast import builder, wire_builder
 from fw1394.packets.frame import ACK_FRAME_FORMAT, ACK_FRAME_SIZE
 from fw1394.packets.nodeid import BROADCAST_PHY, LOCAL_BASE
 from fw1394.transport.bus_host import MAX_BLOCK_READ, MAX_BLOCK_WRITE, BusHost
 from fw1394.transport.copies import HostLink
+from fw1394.transport.express import READ_BLOCK, READ_QUADLET, WRITE_BLOCK, WRITE_QUADLET, Kind
 from fw1394.transport.link import ACK, ASYNC_PACKET
 from fw1394.transport.sansio.wire import FrameHeader
 
@@ -65,23 +54,8 @@ def _acked(payload: bytes) -> int:
 
 _COMPLETE = ACK_BYTES[AckCode.ack_complete]
 _OFFSET_LIMIT = 1 << 48
-_ROUTE = ("destination_id", "tlabel", "source_id", "offset")
-#: A request kind: its wire bytes from the route and its own fields, the packet the
-#: requester would have made of the same values (for the handover), and the response
-#: class that ends it (WriteResponse: ended by ``ack_complete`` alone).
-Kind = tuple[Callable[..., bytes], Callable[..., Request], type[AsyncPacket]]
 #: Whose a flight is (the adapter's client and request number): passed back, never used.
 Owner = TypeVar("Owner")
-
-
-def _kind(cls: type[Request], response: type[AsyncPacket], *names: str) -> Kind:
-    return wire_builder(cls, *_ROUTE, *names), builder(cls, *_ROUTE, *names), response
-
-
-READ_QUADLET = _kind(QuadletReadRequest, QuadletReadResponse)
-READ_BLOCK = _kind(BlockReadRequest, BlockReadResponse, "data_length")
-WRITE_QUADLET = _kind(QuadletWriteRequest, WriteResponse, "quadlet_data")
-WRITE_BLOCK = _kind(BlockWriteRequest, WriteResponse, "data")
 
 
 @dataclass(slots=True)
