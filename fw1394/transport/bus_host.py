@@ -363,6 +363,10 @@ class BusHost:
             # before any engine timer can call them missing.
             self._come_back(now)
         self._served_at = now
+        self.check_timers(now)
+
+    def check_timers(self, now: float) -> None:
+        """Fire the engine's timers that are due at ``now``."""
         if now >= self._timers_due:
             # Engine timeouts are tens of milliseconds and up: looking at them once a
             # millisecond is precise enough and keeps the heap off the per-packet path.

@@ -76,7 +76,6 @@ PID_FILE = "adapter.pid"
 _LONGEST_SLEEP = 0.05
 #: A client that does not take its replies within this long is dropped.
 _SEND_TIMEOUT = 2.0
-_TIMER_GRANULARITY = 0.001
 _clock = time.monotonic
 
 
@@ -246,16 +245,7 @@ class AdapterHost(BusHost):
             self._timers_due = 0.0
         if now >= link.due or now >= station.wake_by:
             link.service(now)
-        if now >= self._timers_due:
-            # Engine timeouts are tens of milliseconds and up: looking at them once a
-            # millisecond is precise enough and keeps the heap off the per-packet path.
-            self._timers_due = now + _TIMER_GRANULARITY
-            requester = self.requester
-            due = requester.next_deadline()
-            if due is not None and now >= due:
-                requester.handle_timer(now)
-                self._flush_requests()
-                self._collect()
+        self.check_timers(now)
         self._served_at = now
         # Unsolicited responses and stray acks: nobody here asks for them.
         self._other_events.clear()
