@@ -36,8 +36,9 @@ model's choice.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import NamedTuple
 
 from fw1394.boards.qla1.regs import (
     HUB_BOARD_INFO,
@@ -58,9 +59,9 @@ BOARD_NUMBERS = 16
 WIDE_TIMER_FIRMWARE = 9
 
 
-@dataclass(frozen=True)
-class HubBlock:
-    """One board's real-time block as the hub stored it."""
+class HubBlock(NamedTuple):
+    """One board's real-time block as the hub stored it (a tuple: immutable, so hubs can
+    share one, and cheap to make, as every board stores one every cycle)."""
 
     sequence: int
     update_ticks: int
@@ -145,15 +146,21 @@ class HubState:
 
     def store(self, board_id: int, sequence: int, quadlets: Sequence[int], now: int) -> None:
         """Keep ``board_id``'s block; a newer block from the same board replaces it."""
-        self.keep(board_id, HubBlock(sequence, now - self.query_tick, tuple(quadlets)), now)
+        blocks = self.blocks
+        if board_id in blocks:
+            del blocks[board_id]  # a newer block goes last, as a broadcast would
+        blocks[board_id] = HubBlock(sequence, now - self.query_tick, tuple(quadlets))
+        self.last_update_tick = now
 
     def keep(self, board_id: int, block: HubBlock, now: int) -> None:
         """:meth:`store` of a block made already (blocks are frozen: hubs can share one)."""
         update_ticks = now - self.query_tick
         if block.update_ticks != update_ticks:
-            block = replace(block, update_ticks=update_ticks)
-        self.blocks.pop(board_id, None)
-        self.blocks[board_id] = block
+            block = block._replace(update_ticks=update_ticks)
+        blocks = self.blocks
+        if board_id in blocks:
+            del blocks[board_id]  # a newer block goes last, as a broadcast would
+        blocks[board_id] = block
         self.last_update_tick = now
 
     def keep_all(self, blocks: Sequence[tuple[int, HubBlock]], now: int) -> None:
@@ -162,12 +169,25 @@ class HubState:
         stored = self.blocks
         for board_id, block in blocks:
             if block.update_ticks != update_ticks:
-                block = replace(block, update_ticks=update_ticks)
+                block = block._replace(update_ticks=update_ticks)
             if board_id in stored:
                 del stored[board_id]  # a newer block goes last, as a broadcast would
             stored[board_id] = block
         if blocks:
             self.last_update_tick = now
+
+    def keep_round(self, round_blocks: Mapping[int, HubBlock], now: int) -> None:
+        """:meth:`keep_all` of a whole round at once, for a rack that serves every board.
+
+        ``round_blocks``: every board's block of the round, keyed by its reporting
+        board, in the order the broadcasts come; this hub's own block is among them,
+        the same object it stored at the query. Taken at the tick of this hub's query,
+        with every block made at its own board's query tick (both update times 0), and
+        with no key but its own in :attr:`blocks` yet: then keeping the others in turn
+        is one dict update (the own block keeps its place, first).
+        """
+        self.blocks.update(round_blocks)
+        self.last_update_tick = now
 
     def store_broadcast(self, words: Sequence[int], now: int) -> None:
         """A board's broadcast: {sequence 31..16, quadlet count 7..0}, then its block."""
@@ -205,11 +225,13 @@ class HubState:
         # Each board's block has a fixed slot, after those of the lower-numbered
         # boards of the mask (hence 0x1803's lower-board mask): board order, not
         # arrival order, which is also the order the host parses.
-        header, data, sequence = layout.header, layout.data, self.sequence
-        for board_id in sorted(self.blocks):
-            block = self.blocks[board_id]
+        header, sequence, blocks = layout.header, self.sequence, self.blocks
+        # Rev 8 on keeps each block whole: its quadlets as they are.
+        whole = layout.data_quadlets is None
+        for board_id in sorted(blocks):
+            block = blocks[board_id]
             memory.append(header(block, sequence))
-            memory += data(block)
+            memory += block.quadlets if whole else layout.data(block)
         if self.complete and layout.timing_bits:
             last_update = max(self.last_update_tick - self.query_tick, 0)
             memory.append(layout.timing(last_update, max(now - self.query_tick, 0)))
