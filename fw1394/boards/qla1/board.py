@@ -441,9 +441,6 @@ class Qla1Board:
         if command.reboot:
             self._power_up()
             return
-        self._enforce_watchdog()
-
-    def _enforce_watchdog(self) -> None:
         # While the timeout flag is up, the firmware keeps every amplifier disabled.
         if self.watchdog.timed_out:
             self.control.disable_all_amps()
