@@ -136,7 +136,7 @@ def split_rev8_write(words: Sequence[int], start_index: int) -> dict[int, RtWrit
         owner = (header >> 8) & 0xF
         last = position + length - 1
         dacs = tuple(zip(_CHANNEL_OF, words[position + 1 : min(last, total)], strict=False))
-        control = (words[last],) if length > 1 and last < total else ()
+        control: tuple[int, ...] = (words[last],) if length > 1 and last < total else ()
         if dacs or control:
             # Mostly one block per board; a board named again gets the later ones after.
             earlier = shares.get(owner)
