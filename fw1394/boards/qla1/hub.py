@@ -36,7 +36,7 @@ model's choice.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -85,13 +85,31 @@ class HubLayout:
     #: Width of each half of the closing timing quadlet (0: no closing quadlet).
     timing_bits: int
 
-    def header(self, block: HubBlock, current_sequence: int) -> int:
-        update = block.update_ticks & ((1 << self.update_time_bits) - 1)
-        if self.full_sequence:
-            return (block.sequence & 0xFFFF) << 16 | update
-        mismatch = SEQUENCE_MISMATCH if block.sequence != current_sequence else 0
-        size = (len(block.quadlets) + 1) & 0xFF
-        return size << 24 | (block.sequence & 0xFF) << 16 | mismatch | update
+    def words(self, blocks: Iterable[HubBlock], current_sequence: int) -> list[int]:
+        """Each of ``blocks`` as hub memory holds it, in turn: its header, then its data.
+
+        ``current_sequence``: the hub's query sequence (a Rev 8+ header flags a block
+        of another). One loop for every block, not a call per block: the hub lays
+        out the whole round every cycle.
+        """
+        update_mask = (1 << self.update_time_bits) - 1
+        full_sequence, kept = self.full_sequence, self.data_quadlets
+        memory: list[int] = []
+        for sequence, update_ticks, quadlets in blocks:
+            if full_sequence:
+                memory.append((sequence & 0xFFFF) << 16 | update_ticks & update_mask)
+            else:
+                size = (len(quadlets) + 1) & 0xFF
+                mismatch = SEQUENCE_MISMATCH if sequence != current_sequence else 0
+                memory.append(
+                    size << 24 | (sequence & 0xFF) << 16 | mismatch | update_ticks & update_mask
+                )
+            if kept is None:
+                memory += quadlets
+            else:
+                memory += quadlets[:kept]
+                memory += (0,) * (kept - len(quadlets))
+        return memory
 
     def data(self, block: HubBlock) -> tuple[int, ...]:
         if self.data_quadlets is None:
@@ -217,21 +235,13 @@ class HubState:
             memory = [0] * (slot * BOARD_NUMBERS)
             for board_id, block in self.blocks.items():
                 start = slot * board_id
-                memory[start : start + slot] = [
-                    layout.header(block, self.sequence),
-                    *layout.data(block),
-                ]
+                memory[start : start + slot] = layout.words([block], self.sequence)
             return memory[:HUB_MEMORY_QUADLETS]
         # Each board's block has a fixed slot, after those of the lower-numbered
         # boards of the mask (hence 0x1803's lower-board mask): board order, not
         # arrival order, which is also the order the host parses.
-        header, sequence, blocks = layout.header, self.sequence, self.blocks
-        # Rev 8 on keeps each block whole: its quadlets as they are.
-        whole = layout.data_quadlets is None
-        for board_id in sorted(blocks):
-            block = blocks[board_id]
-            memory.append(header(block, sequence))
-            memory += block.quadlets if whole else layout.data(block)
+        blocks = self.blocks
+        memory = layout.words([blocks[board_id] for board_id in sorted(blocks)], self.sequence)
         if self.complete and layout.timing_bits:
             last_update = max(self.last_update_tick - self.query_tick, 0)
             memory.append(layout.timing(last_update, max(now - self.query_tick, 0)))
