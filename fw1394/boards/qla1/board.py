@@ -213,6 +213,11 @@ class Qla1Board:
         if DEFECT_WATCHDOG_DISABLED not in self.defects and self.watchdog.advance(ticks):
             self.control.disable_all_amps()
 
+    def advance_to(self, ticks: int) -> None:
+        """:meth:`set_time` unless ``ticks`` is not after the board's time (then nothing)."""
+        if ticks > self._now:
+            self.set_time(ticks)
+
     def read_quadlet(self, offset: int) -> int:
         _check_offset(offset)
         if in_csr_window(offset):
