@@ -17,6 +17,7 @@ server addresses.
 
 from __future__ import annotations
 
+import functools
 import select
 import socket
 from collections import deque
@@ -60,6 +61,8 @@ MAX_BOARDS = 16
 MAX_DATAGRAM = 65_535
 #: How many of the latest datagrams :attr:`EthUdpClient.sent` keeps.
 SENT_KEPT = 1024
+#: What the host remembers of a read (the loop asks with the same few labels and sizes).
+_host_read = functools.lru_cache(maxsize=1024)(HostReadRequest)
 # Plain ints: flag arithmetic on the enum costs more than the rest of a send.
 _NO_FORWARD = int(HostNodeFlag.NO_FORWARD)
 _ETH_BROADCAST = int(HostNodeFlag.ETH_BROADCAST)
@@ -233,7 +236,7 @@ class EthUdpClient:
         )
         if not self._send(request, node, flags):
             return None
-        packet = self._read(HostReadRequest(node, tl), "ReadQuadlet")
+        packet = self._read(_host_read(node, tl), "ReadQuadlet")
         return None if packet is None else int.from_bytes(packet[12:16], "big")
 
     def write_quadlet_node(self, node: int, offset: int, value: int, flags: int = 0) -> bool:
@@ -267,7 +270,7 @@ class EthUdpClient:
         )
         if not self._send(request, node, flags):
             return None
-        packet = self._read(HostReadRequest(node, tl, length), "ReadBlock")
+        packet = self._read(_host_read(node, tl, length), "ReadBlock")
         return None if packet is None else packet[20 : 20 + length]
 
     def write_block_node(self, node: int, offset: int, data: bytes, flags: int = 0) -> bool:
@@ -287,5 +290,5 @@ class EthUdpClient:
 
     def receive_broadcast_response(self, tl: int, length: int) -> bytes | None:
         """Ethernet-only: the hub's unasked answer to a broadcast query (any source node)."""
-        packet = self._read(HostReadRequest(BROADCAST_NODE, tl, length), "ReceiveBroadcastRead")
+        packet = self._read(_host_read(BROADCAST_NODE, tl, length), "ReceiveBroadcastRead")
         return None if packet is None else packet[20 : 20 + length]
