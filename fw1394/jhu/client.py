@@ -109,6 +109,9 @@ class EthUdpClient:
         sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, 0)
         sock.setblocking(False)
         self.sock = sock
+        #: The wait for an answer, on this one socket, set up once (not per receive).
+        self._readable = select.poll()
+        self._readable.register(sock, select.POLLIN)
         #: The latest datagrams sent, oldest first: (destination address, payload), for
         #: tests and traces (bounded: a real-time loop sends thousands a second).
         self.sent: deque[tuple[tuple[str, int], bytes]] = deque(maxlen=SENT_KEPT)
@@ -184,9 +187,8 @@ class EthUdpClient:
             count += 1
 
     def _receive(self, size: int) -> bytes | None:
-        """One select() and one recv() of at most ``size`` bytes (longer ones are cut)."""
-        readable, _, _ = select.select([self.sock], [], [], self.receive_timeout)
-        if not readable:
+        """One wait (poll) and one recv() of at most ``size`` bytes (longer ones are cut)."""
+        if not self._readable.poll(1000.0 * self.receive_timeout):
             return None
         try:
             return self.sock.recv(size)
