@@ -82,6 +82,7 @@ PLAN: dict[str, tuple[str, ...]] = {
     "fw1394/transport/link.py": (
         "tests/transport/test_link.py",
         "tests/transport/test_link_edges.py",
+        "tests/transport/test_link_mutants.py",
     ),
     "fw1394/boards": ("tests/boards", "tests/node/test_config_rom.py"),
     "fw1394/capture/formats": (
