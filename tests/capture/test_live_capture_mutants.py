@@ -560,6 +560,7 @@ def test_the_acks_after_the_count_are_awaited_only_for_the_grace_time() -> None:
     started = time.monotonic()
     assert capture_records(endless, pcapng_writer()[0], Limits(threading.Event(), count=1)) == 1
     assert 0.15 <= time.monotonic() - started < 5.0
+    assert all(left > 0 for left in endless.timeouts)  # never asked to wait for nothing
 
 
 def test_a_stop_request_ends_a_capture_at_once_even_at_its_count() -> None:
@@ -798,6 +799,23 @@ def _packet_sockets_allowed() -> bool:
     return True
 
 
+def test_a_slow_live_udp_capture_is_flushed_while_it_runs(monkeypatch: pytest.MonkeyPatch) -> None:
+    request = bytes.fromhex("0105ffc01c40ffd0000000000004a9927b79")
+
+    class Trickling(StandInPacketSocket):
+        def recvfrom(self, size: int) -> tuple[bytes, tuple[str, int, int]]:
+            time.sleep(0.05)
+            return udp_frame(request), ("eth0", 0x0800, PACKET_HOST)
+
+    monkeypatch.setattr(live, "open_raw_socket", lambda interface: Trickling([]))
+    stream = CountingStream()
+    started = time.monotonic()
+    limits = Limits(threading.Event(), duration=0.8)
+    assert live.capture_udp("eth0", (1394,), PcapWriter(stream, 1), limits) > 0
+    during = [size for when, size in stream.flushes if when - started < 0.75]
+    assert during and during[0] > 24
+
+
 @pytest.mark.skipif(not hasattr(socket, "AF_PACKET"), reason="needs Linux packet sockets")
 def test_a_packet_socket_that_cannot_open_is_one_line_for_the_user() -> None:
     with pytest.raises(CaptureError) as caught:
@@ -820,6 +838,51 @@ def test_a_packet_socket_on_loopback_has_a_large_receive_buffer() -> None:
         assert raw.getsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF) >= 2 * min(8 << 20, limit)
     finally:
         raw.close()
+
+
+@pytest.mark.skipif(not hasattr(socket, "AF_PACKET"), reason="needs Linux packet sockets")
+def test_a_live_udp_capture_on_loopback_keeps_one_copy_of_each_datagram() -> None:
+    # The kernel shows a packet socket on lo every frame twice, leaving and arriving.
+    if not _packet_sockets_allowed():
+        pytest.skip("packet sockets need CAP_NET_RAW")
+    with (
+        socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as receiver,
+        socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sender,
+    ):
+        receiver.bind(("127.0.0.1", 0))
+        port = receiver.getsockname()[1]
+        done = threading.Event()
+
+        def send_requests() -> None:
+            tlabel = 0
+            while not done.wait(0.02):
+                header = struct.pack(">3I", 0xFFC0 << 16 | tlabel << 10 | 4 << 4, 0xFFD00000, 4)
+                sender.sendto(b"\x01\x05" + with_crc(header), ("127.0.0.1", port))
+                tlabel = (tlabel + 1) % 64
+
+        sending = threading.Thread(target=send_requests, daemon=True)
+        sending.start()
+        stream = io.BytesIO()
+        try:
+            limits = Limits(threading.Event(), duration=5.0, count=2)
+            captured = live.capture_udp("lo", (port,), PcapWriter(stream, 1), limits)
+        finally:
+            done.set()
+            sending.join()
+    raw = stream.getvalue()
+    frames, pos = [], 24
+    while pos < len(raw):
+        captured_length = struct.unpack_from("<I", raw, pos + 8)[0]
+        frames.append(raw[pos + 16 : pos + 16 + captured_length])
+        pos += 16 + captured_length
+    assert captured == len(frames) == 2
+    for ethernet in frames:
+        assert ethernet[12:14] == b"\x08\x00" and ethernet[14 + 9] == 17  # IPv4, UDP
+        assert struct.unpack_from(">H", ethernet, 14 + 20 + 2) == (port,)
+    tlabels = [
+        struct.unpack_from(">I", ethernet, 14 + 28 + 2)[0] >> 10 & 0x3F for ethernet in frames
+    ]
+    assert tlabels[1] == (tlabels[0] + 1) % 64  # two datagrams, not one seen twice
 
 
 # -- the recorder --------------------------------------------------------------------------------
