@@ -37,7 +37,7 @@ from fw1394.transport.sansio.config import BusConfig
 
 # -- the tunnel's frames (docs/virtual-bus.md) ----------------------------------------------------
 
-ASYNC, ACK, PHY, JOIN, BUS_RESET = 1, 2, 3, 16, 20
+ASYNC, ACK, PHY, JOIN, BEACON, BUS_RESET, RESET_REQUEST, REFUSED = 1, 2, 3, 16, 19, 20, 21, 22
 NO_PHY, BROADCAST, EVERY_MEMBER = 0xFF, 63, 0xFF
 S400 = 2
 MEMBER_ID = 0x0BADF00D
@@ -273,6 +273,9 @@ def test_every_frame_kind_becomes_its_record_and_other_frames_none(
             frame(BUS_RESET, generation=6, sender=NO_PHY, payload=member_table),
             frame(PHY, generation=6, sender=0, speed=0, payload=SELF_ID),
             frame(JOIN, generation=6, payload=bytes(28)),
+            frame(BEACON, generation=6, payload=member_table),
+            frame(RESET_REQUEST, generation=6),
+            frame(REFUSED, generation=6, payload=struct.pack(">I", 5) + b"full"),
             b"GW" + frame(PHY, generation=6, payload=SELF_ID)[2:],  # not the tunnel's magic
             frame(PHY, generation=6)[:20],  # shorter than a header
             frame(
@@ -287,7 +290,7 @@ def test_every_frame_kind_becomes_its_record_and_other_frames_none(
         BusRecord(base, RecordType.bus_reset, b"", 6, None, S400),
         BusRecord(base + 1000, RecordType.phy_packet, SELF_ID, 6, 0, 0),
         # From no node yet: no ack can be told to it, so it is not held for one.
-        BusRecord(base + 5000, RecordType.async_packet, READ_REQUEST, 6, None, S400),
+        BusRecord(base + 8000, RecordType.async_packet, READ_REQUEST, 6, None, S400),
     ]
 
 
@@ -812,8 +815,10 @@ def test_a_slow_live_udp_capture_is_flushed_while_it_runs(monkeypatch: pytest.Mo
     started = time.monotonic()
     limits = Limits(threading.Event(), duration=0.8)
     assert live.capture_udp("eth0", (1394,), PcapWriter(stream, 1), limits) > 0
+    elapsed = time.monotonic() - started
     during = [size for when, size in stream.flushes if when - started < 0.75]
     assert during and during[0] > 24
+    assert len(stream.flushes) <= 2 + elapsed / 0.5  # twice a second, not once a frame
 
 
 @pytest.mark.skipif(not hasattr(socket, "AF_PACKET"), reason="needs Linux packet sockets")
