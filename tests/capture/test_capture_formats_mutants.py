@@ -1,0 +1,173 @@
+"""Trace readers at edges the format tests do not reach.
+
+Files are built here from the pcapng specification (block type, total length,
+body, total length again; little-endian in these files), libpcap's classic
+header and record layout, Ethernet II / IPv4 (RFC 791) / UDP (RFC 768) headers,
+the pseudo-header of docs/capture-format.md (12 bytes, big-endian; direction in
+flag bits 5..4: 0 bus, 1 outbound, 2 inbound) and Eth1394 datagrams of
+jhu-eth1394.md §1.6.
+"""
+
+from __future__ import annotations
+
+import io
+import struct
+from pathlib import Path
+
+import pytest
+
+from fw1394.capture.formats import batch as batches
+from fw1394.capture.formats import containers, sources
+from fw1394.capture.formats.chunks import read_into
+from fw1394.capture.formats.pseudo_header import decode as decode_pseudo_header
+from fw1394.capture.formats.record import BusRecord, RecordType
+
+
+def pcapng_block(block_type: int, body: bytes) -> bytes:
+    length = 12 + len(body)
+    return struct.pack("<II", block_type, length) + body + struct.pack("<I", length)
+
+
+def section() -> bytes:
+    return pcapng_block(0x0A0D0D0A, struct.pack("<IHHq", 0x1A2B3C4D, 1, 0, -1))
+
+
+def interface(linktype: int) -> bytes:
+    return pcapng_block(1, struct.pack("<HHI", linktype, 0, 0))
+
+
+def enhanced(interface_id: int, stamp: int, data: bytes) -> bytes:
+    head = struct.pack(
+        "<IIIII", interface_id, stamp >> 32, stamp & 0xFFFFFFFF, len(data), len(data)
+    )
+    return pcapng_block(6, head + data + bytes(-len(data) % 4))
+
+
+def read(content: bytes, chunk_size: int) -> tuple[list[tuple[int, int, bytes]], list[int]]:
+    """(file position, link type, bytes) of each packet, and the positions of issues."""
+    packets, issues = [], []
+    for chunk in containers.read_chunks(io.BytesIO(content), chunk_size=chunk_size):
+        issues += [issue.position for issue in chunk.issues]
+        packets += [
+            (int(chunk.position[i]), int(chunk.linktype[i]), chunk.packet(i))
+            for i in range(len(chunk))
+        ]
+    return packets, issues
+
+
+def test_the_direction_of_a_record_is_named_and_a_reserved_one_numbered() -> None:
+    names = [batches.direction_name(value) for value in range(4)]
+    assert names == ["bus", "outbound", "inbound", "reserved_3"]
+
+
+@pytest.mark.parametrize("chunk_size", [64, 100, 1 << 20])
+def test_packets_of_two_interfaces_keep_their_file_positions_in_any_chunking(
+    chunk_size: int,
+) -> None:
+    content = section() + interface(147) + interface(1)
+    expected = []
+    for index in range(6):
+        expected.append((len(content), (147, 1)[index % 2], bytes([index]) * 4))
+        content += enhanced(index % 2, index, bytes([index]) * 4)
+    assert read(content, chunk_size) == (expected, [])
+
+
+def test_a_pseudo_header_of_another_version_is_refused_by_its_version() -> None:
+    raw = struct.pack(">BBBBHBBBBH", 2, 12, 0, 2, 0, 0, 5, 1, 0xFF, 0)
+    with pytest.raises(ValueError, match=r"^pseudo-header version 2 is not 1$"):
+        decode_pseudo_header(raw)
+
+
+def test_records_without_ack_sender_or_observer_are_columns_of_minus_one(tmp_path: Path) -> None:
+    # As a reader of files gives them (test_records_without_a_node_read_back_without_one).
+    record = BusRecord(1, RecordType.bus_reset, b"", 3)
+    batch = batches.from_records([record], [1])
+    assert (int(batch.ack[0]), int(batch.sender[0]), int(batch.observer[0])) == (-1, -1, -1)
+    assert batch.record(0) == record
+
+
+def eth1394_frame(payload: bytes) -> bytes:
+    udp = struct.pack(">HHHH", 40000, 1394, 8 + len(payload), 0) + payload
+    ip = struct.pack(
+        ">BBHHHBBH4s4s", 0x45, 0, 20 + len(udp), 0, 0, 64, 17, 0, bytes([127, 0, 0, 1]),
+        bytes([127, 0, 0, 2]),
+    )  # fmt: skip
+    return bytes(12) + b"\x08\x00" + ip + udp
+
+
+def test_eth1394_records_are_numbered_by_their_frames(tmp_path: Path) -> None:
+    # Three quadlet reads (jhu-eth1394.md §1.6), one per Ethernet frame, in classic pcap.
+    reads = [
+        "0105ffc01c40ffd0000000000004a9927b79",
+        "0105ffc02840ffd0000000000000c0518b0f",
+        "0007ffc13040ffd0000000000004127ae411",
+    ]
+    content = struct.pack("<IHHiIII", 0xA1B2C3D4, 2, 4, 0, 0, 65535, 1)
+    for number, text in enumerate(reads):
+        frame = eth1394_frame(bytes.fromhex(text))
+        content += struct.pack("<IIII", 1_700_000_000, number, len(frame), len(frame)) + frame
+    path = tmp_path / "reads.pcap"
+    path.write_bytes(content)
+    found = [job() for job in sources.jobs(str(path), "udp")]
+    frames = [int(f) for batch in found for f in batch.frame]
+    kinds = [int(k) for batch in found for k in batch.record_type]
+    # Bus resets come first where the control word's generation moves (5, then 0 and 7).
+    assert [f for f, k in zip(frames, kinds, strict=True) if k == 0] == [1, 2, 3]
+
+
+class Trickle(io.RawIOBase):
+    """A pipe: ten bytes at a time, and no seeking."""
+
+    def __init__(self) -> None:
+        self.left = 100
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, buffer: memoryview) -> int:  # type: ignore[override]
+        count = min(10, self.left, len(buffer))
+        buffer[:count] = bytes(count)
+        self.left -= count
+        return count
+
+
+def test_a_pipe_is_read_as_it_comes_and_a_file_in_full() -> None:
+    target = memoryview(bytearray(100))
+    assert read_into(io.BufferedReader(Trickle(), buffer_size=10), target) == 10
+    assert read_into(io.BytesIO(bytes(100)), target) == 100
+
+
+def test_header_quadlets_of_packets_off_a_quadlet_boundary(tmp_path: Path) -> None:
+    # Classic pcap records of a pseudo-header and 5 and 9 bytes: the second packet
+    # starts one byte past a quadlet boundary in the file.
+    header = struct.pack("<IHHiIII", 0xA1B2C3D4, 2, 4, 0, 0, 65535, 147)
+    packets = [bytes(range(1, 6)), bytes(range(11, 20))]
+    content = header
+    for n, packet in enumerate(packets):
+        data = struct.pack(">BBBBHBBBBH", 1, 12, 0, 2, 0, 0, 5, n, 0xFF, 0) + packet
+        content += struct.pack("<IIII", 1_700_000_000, n, len(data), len(data)) + data
+    path = tmp_path / "odd.pcap"
+    path.write_bytes(content)
+    (batch,) = [job() for job in sources.jobs(str(path), "fw1394")]
+    quadlets = batches.header_quadlets(batch, None, 2)
+    assert quadlets.tolist() == [
+        [0x01020304, 0],  # the second quadlet lies past the 5-byte packet
+        [0x0B0C0D0E, 0x0F101112],
+    ]
+
+
+def test_a_packet_block_claiming_more_bytes_than_it_holds_is_an_issue() -> None:
+    # Total length 64 leaves 32 bytes of packet; a captured length of 40 runs into the
+    # block's trailer. The blocks around it read as usual.
+    good = enhanced(0, 1, b"\x11" * 8)
+    body = struct.pack("<IIIII", 0, 0, 2, 40, 40) + b"\x22" * 32
+    liar = pcapng_block(6, body)
+    assert len(liar) == 64
+    head = section() + interface(147)
+    content = head + good + liar + good
+    packets, issues = read(content, 1 << 20)
+    assert [(position, data) for position, _, data in packets] == [
+        (len(head), b"\x11" * 8),
+        (len(head) + len(good) + 64, b"\x11" * 8),
+    ]
+    assert issues == [len(head) + len(good)]
