@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 from fw1394.capture.formats import batch as batches
-from fw1394.capture.formats import containers, sources
+from fw1394.capture.formats import containers, kernel, sources
 from fw1394.capture.formats.chunks import read_into
 from fw1394.capture.formats.pseudo_header import decode as decode_pseudo_header
 from fw1394.capture.formats.record import BusRecord, RecordType
@@ -171,3 +171,29 @@ def test_a_packet_block_claiming_more_bytes_than_it_holds_is_an_issue() -> None:
         (len(head) + len(good) + 64, b"\x11" * 8),
     ]
     assert issues == [len(head) + len(good)]
+
+
+# Linux firewire tracepoints (include/trace/events/firewire.h) as the kernel prints them:
+# an outbound response waits for its completion line, which carries its ack
+# (status=1: ack_complete); an unrelated inbound request is logged in between.
+_RESPONSE = (
+    "kworker/2:3-125 [002] ..... 2107.432907: async_response_outbound_initiate: "
+    "transaction=0xffff8ee1c9a07f00 card_index=0 generation=3 scode=2 dst_id=0xffc0 tlabel=10 "
+    "tcode=6 src_id=0xffc1 rcode=0 header={0xffc02960,0xffc10000,0x0,0x105c2a} data={}\n"
+)
+_OTHER_INBOUND = (
+    "<idle>-0 [002] d.h2. 2107.432910: async_request_inbound: "
+    "transaction=0xffff8ee1c9a08000 card_index=0 generation=3 scode=2 status=2 timestamp=0x3c63 "
+    "dst_id=0xffc1 tlabel=11 tcode=4 src_id=0xffc0 offset=0xfffff0000204 "
+    "header={0xffc12d40,0xffc0ffff,0xf0000204,0x0} data={}\n"
+)
+_COMPLETE = (
+    "<idle>-0 [002] d.h2. 2107.432916: async_response_outbound_complete: "
+    "transaction=0xffff8ee1c9a07f00 card_index=0 generation=3 scode=2 status=1 timestamp=0x3c6c\n"
+)
+
+
+def test_a_waiting_response_is_not_passed_by_a_later_ready_record() -> None:
+    reader = kernel.KernelTextReader(io.StringIO(_RESPONSE + _OTHER_INBOUND + _COMPLETE))
+    records = [batch.record(i) for batch in reader.batches() for i in range(len(batch))]
+    assert [(r.data[3] & 0xF0, r.ack) for r in records] == [(0x60, 1), (0x40, 2)]
