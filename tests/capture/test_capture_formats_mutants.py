@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 from fw1394.capture.formats import batch as batches
-from fw1394.capture.formats import containers, kernel, sources
+from fw1394.capture.formats import containers, kernel, nosy, sources
 from fw1394.capture.formats.chunks import read_into
 from fw1394.capture.formats.pseudo_header import decode as decode_pseudo_header
 from fw1394.capture.formats.record import BusRecord, RecordType
@@ -197,3 +197,83 @@ def test_a_waiting_response_is_not_passed_by_a_later_ready_record() -> None:
     reader = kernel.KernelTextReader(io.StringIO(_RESPONSE + _OTHER_INBOUND + _COMPLETE))
     records = [batch.record(i) for batch in reader.batches() for i in range(len(batch))]
     assert [(r.data[3] & 0xF0, r.ack) for r in records] == [(0x60, 1), (0x40, 2)]
+
+
+def classic_pcap(linktype: int, records: list[bytes], snaplen: int = 65535) -> bytes:
+    content = struct.pack("<IHHiIII", 0xA1B2C3D4, 2, 4, 0, 0, snaplen, linktype)
+    for number, data in enumerate(records):
+        content += struct.pack("<IIII", 1_700_000_000, number, len(data), len(data)) + data
+    return content
+
+
+def test_a_record_longer_than_16_mib_is_implausible_whatever_the_snap_length() -> None:
+    # A snap length of 0xFFFFFFFF (some writers' "no limit") does not make a 32 MiB
+    # record plausible: it is an issue, and reading goes on at the next record.
+    first, last = bytes([1]) * 8, bytes([3]) * 8
+    content = classic_pcap(1, [first], snaplen=0xFFFFFFFF)
+    damaged = len(content)
+    content += struct.pack("<IIII", 1_700_000_000, 1, 32 << 20, 32 << 20)
+    content += struct.pack("<IIII", 1_700_000_000, 2, len(last), len(last)) + last
+    packets, issues = read(content, 1 << 20)
+    assert [data for _, _, data in packets] == [first, last]
+    assert issues == [damaged]
+
+
+def test_a_nosy_dump_of_one_record_is_recognised() -> None:
+    # A bus reset alone: its length (4, little-endian) and the timestamp.
+    assert nosy.plausible(struct.pack("<iI", 4, 123_456))
+    assert not nosy.plausible(struct.pack("<iI", 5, 123_456) + b"\0")
+
+
+def test_linux_cooked_frames_are_read_at_link_type_113(tmp_path: Path) -> None:
+    # Linux cooked capture v1: packet type, ARPHRD type, address length, 8 address
+    # bytes, protocol (0x0800 IPv4); then the IP packet.
+    read_request = bytes.fromhex("0105ffc01c40ffd0000000000004a9927b79")
+    ip_packet = eth1394_frame(read_request)[14:]
+    cooked = struct.pack(">HHH8sH", 4, 1, 6, bytes(8), 0x0800) + ip_packet
+    path = tmp_path / "cooked.pcap"
+    path.write_bytes(classic_pcap(113, [cooked]))
+    found = [job() for job in sources.jobs(str(path), "udp")]
+    records = [batch.record(i) for batch in found for i in range(len(batch))]
+    assert [r.data for r in records if r.record_type == RecordType.async_packet] == [
+        bytes.fromhex("ffc01c40ffd0000000000004a9927b79")
+    ]
+
+
+def test_an_obsolete_packet_block_keeps_a_timestamp_past_32_bits() -> None:
+    stamp = 1_700_000_000_123_456  # microseconds: the high word is not zero
+    data = b"\x44" * 4
+    body = struct.pack("<HHIIII", 0, 0, stamp >> 32, stamp & 0xFFFFFFFF, 4, 4) + data
+    content = section() + interface(147) + pcapng_block(2, body)
+    (chunk,) = containers.read_chunks(io.BytesIO(content), chunk_size=1 << 20)
+    assert int(chunk.ts_ns[0]) == stamp * 1000
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        struct.pack("<II", 0x99, 14) + bytes(8),  # not a whole number of quadlets
+        struct.pack("<IIII", 0x99, 16, 0, 20),  # its trailer says another length
+    ],
+    ids=["length", "trailer"],
+)
+def test_a_block_of_a_bad_length_is_skipped_to_the_next_packet_block(bad: bytes) -> None:
+    head = section() + interface(147)
+    good = enhanced(0, 7, b"\x55" * 4)
+    content = head + bad + good
+    packets, issues = read(content, 1 << 20)
+    assert [(position, data) for position, _, data in packets] == [(len(head) + 16, b"\x55" * 4)]
+    assert issues == [len(head)]
+
+
+def test_a_firewire_ohci_block_read_line_gives_its_length_and_time() -> None:
+    # tests/data/firewire-ohci-dmesg.txt, line 15: a block read request of 0x58 bytes.
+    line = (
+        "[  431.207282] firewire_ohci 0000:05:00.0: AT spd 2 tl 0f, ffc1 -> ffc0, ack_pending ,"
+        " BR req, fffff0000414 58,0\n"
+    )
+    (batch,) = list(kernel.read_batches(io.StringIO(line)))
+    record = batch.record(0)
+    assert record.timestamp_ns == 431_207_282_000
+    quadlets = struct.unpack(">4I", record.data[:16])
+    assert quadlets[3] >> 16 == 0x58 and quadlets[0] >> 10 & 0x3F == 0x0F
