@@ -277,3 +277,10 @@ def test_a_firewire_ohci_block_read_line_gives_its_length_and_time() -> None:
     assert record.timestamp_ns == 431_207_282_000
     quadlets = struct.unpack(">4I", record.data[:16])
     assert quadlets[3] >> 16 == 0x58 and quadlets[0] >> 10 & 0x3F == 0x0F
+
+
+def test_an_empty_block_before_the_interface_does_not_hide_its_link_type() -> None:
+    # pcapng allows a block of 12 bytes (type, length, length): a reader skips it.
+    empty = struct.pack("<III", 0x99, 12, 12)
+    assert sources.detect_head(section() + empty + interface(147), "empty.pcapng") == "fw1394"
+    assert sources.detect_head(section() + empty + interface(1), "empty.pcapng") == "udp"
