@@ -213,15 +213,18 @@ class AdapterHost(BusHost):
         return self.station.medium.sock
 
     def next_wake(self) -> float:
-        due = min(self.link.due, self.station.wake_by)
+        due, other = self.link.due, self.station.wake_by
+        if other < due:
+            due = other
         deadline = self.requester.next_deadline()
         if deadline is not None:
             # The engine's timers are looked at once a millisecond (keep_timers).
             due = min(due, max(deadline, self._timers_due))
-        for pending in self.raw.values():
-            due = min(due, pending.deadline)
-        if self.express.flight is not None:
-            due = min(due, self.express.flight.deadline)
+        if self.raw:
+            due = min(due, *(pending.deadline for pending in self.raw.values()))
+        flight = self.express.flight
+        if flight is not None and flight.deadline < due:
+            due = flight.deadline
         return due
 
     def take_frames(self, now: float) -> bool:
@@ -350,7 +353,12 @@ class Adapter:
             events = self._wait()
             now = _clock()
             # The bus first: a reset it reports decides which requests read below are stale.
-            if (not events or any(fd == bus_fd for fd, _ in events)) and host.take_frames(now):
+            bus_readable = not events
+            for fd, _ in events:
+                if fd == bus_fd:
+                    bus_readable = True
+                    break
+            if bus_readable and host.take_frames(now):
                 self._traffic = now
             services.after_serve()
             if host._finished or host.raw:
