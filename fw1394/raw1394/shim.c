@@ -215,7 +215,7 @@ static uint32_t put_request(raw1394handle_t h, const struct request *r)
 {
 	size_t head = 4 + 1 + 1 + 2 + 4 + 8 + 4 + 1 + 4;
 	size_t body = head + 4 + r->argument_length + 4 + r->data_length;
-	unsigned char *m, *p;
+	unsigned char small[256], *m, *p;
 	uint32_t number;
 	int result;
 
@@ -227,7 +227,8 @@ static uint32_t put_request(raw1394handle_t h, const struct request *r)
 		errno = EINVAL;
 		return 0;
 	}
-	m = malloc(4 + body);
+	/* A transaction's request fits on the stack; a large block or ROM goes to the heap. */
+	m = 4 + body <= sizeof small ? small : malloc(4 + body);
 	if (!m)
 		return 0;
 	number = ++h->numbers;
@@ -252,7 +253,8 @@ static uint32_t put_request(raw1394handle_t h, const struct request *r)
 	if (r->data_length)
 		memcpy(p, r->data, r->data_length);
 	result = write_all(h, m, 4 + body);
-	free(m);
+	if (m != small)
+		free(m);
 	return result < 0 ? 0 : number;
 }
 
@@ -575,7 +577,7 @@ static int dispatch(raw1394handle_t h, const struct reply *r)
 		p->done = 1;
 		p->generation = r->generation;
 		p->phy = r->phy;
-		if (r->data_length) {
+		if (r->data_length && !p->result) { /* with a result buffer, the data is there */
 			p->data = malloc(r->data_length);
 			if (p->data) {
 				memcpy(p->data, r->data, r->data_length);
@@ -653,23 +655,26 @@ static int iterate(raw1394handle_t h, int user)
 		if (h->in_length >= 4) {
 			uint32_t size = get32(h->in);
 			struct reply r;
-			int result;
+			int result, parsed;
 
 			if (size > MAX_MESSAGE)
 				return broken(h, EPROTO);
 			if (h->in_length >= 4 + size) {
-				unsigned char *body = malloc(size ? size : 1);
+				/* Out of the buffer first: a handler may call the library, which
+				 * reads into it. A transaction's reply fits on the stack. */
+				unsigned char small[512];
+				unsigned char *body = size <= sizeof small ? small : malloc(size);
 				if (!body)
 					return broken(h, ENOMEM);
 				memcpy(body, h->in + 4, size);
 				memmove(h->in, h->in + 4 + size, h->in_length - 4 - size);
 				h->in_length -= 4 + size;
-				if (parse_reply(body, size, &r) < 0) {
+				parsed = parse_reply(body, size, &r) == 0;
+				result = parsed ? dispatch(h, &r) : 0;
+				if (body != small)
 					free(body);
+				if (!parsed)
 					return broken(h, EPROTO);
-				}
-				result = dispatch(h, &r);
-				free(body);
 				signal_pending(h);
 				return result;
 			}
