@@ -20,7 +20,7 @@ from fw1394.boards.snake2010.spec import (
     WATCHDOG_PRESCALER,
 )
 from fw1394.demo.counting import CountingPort
-from fw1394.demo.pacing import Waker
+from fw1394.demo.pacing import Waker, tighten_timer_slack
 from fw1394.demo.processes import children, per_cycle, snapshot, wait_idle
 from fw1394.engine import FailureReason
 from fw1394.engine.space import TICKS_PER_SECOND
@@ -222,6 +222,7 @@ def _servo(
     next_report = start
     tripped = False
     cycle = 0
+    tighten_timer_slack()
     waker = Waker()
     while (now := time.perf_counter()) < end:
         if now < deadline:
