@@ -46,12 +46,12 @@ from fw1394.transport.supervision.bus_key import key_for
 #: How long an asynchronous packet waits for its ack before it is passed on without.
 DEFAULT_ACK_WAIT = 0.05
 #: While the bus is busy, how long the tap sleeps once its queue is drained.
-BATCH_INTERVAL = 0.002
+BATCH_INTERVAL = 0.005
 #: How long after the last frame the bus counts as busy.
 QUIET_AFTER = 0.05
 
 
-@dataclass
+@dataclass(slots=True)
 class _Pending:
     record: BusRecord
     #: (generation, sender physical ID, frame sequence) an ack would refer to; None: final.
@@ -81,6 +81,8 @@ class BusTap:
         self._last_stamp_ns = 0
         #: When the tap last took a frame (monotonic seconds).
         self._last_frame = -math.inf
+        #: Until when a packet taken now waits for its ack (set per batch of frames).
+        self._expires = -math.inf
         self._closed = False
 
     @property
@@ -109,6 +111,8 @@ class BusTap:
         """The next record, or None if none is complete within ``timeout`` seconds."""
         clock = time.monotonic
         limit = clock() + timeout
+        receive = self.medium.receive_stamped
+        take = self._take
         while True:
             now = clock()
             ready = self._pop_ready(now)
@@ -117,10 +121,16 @@ class BusTap:
             if now >= limit:
                 return None
             busy = now - self._last_frame < QUIET_AFTER
-            stamped = self.medium.receive_stamped(wait=not busy)
+            stamped = receive(wait=not busy)
             if stamped is not None:
+                # Everything queued behind it comes in the same pass: one clock
+                # reading for the batch, and the acks queued behind their packets
+                # are joined to them before either is passed on.
+                self._expires = clock() + self.ack_wait
+                take(*stamped)
+                while (stamped := receive(wait=False)) is not None:
+                    take(*stamped)
                 self._last_frame = clock()
-                self._take(*stamped)
             elif busy:
                 time.sleep(min(BATCH_INTERVAL, limit - now))
 
@@ -195,7 +205,7 @@ class BusTap:
             self._push(response, (generation, sender, header.sequence))
 
     def _push(self, record: BusRecord, key: tuple[int, int, int] | None) -> None:
-        pending = _Pending(record, key, time.monotonic() + self.ack_wait)
+        pending = _Pending(record, key, self._expires)
         self._queue.append(pending)
         if key is not None:
             self._waiting[key] = pending
