@@ -154,6 +154,12 @@ def _print_summary(numbers: dict[str, Any]) -> None:
     )
     kinds = ", ".join(f"{n} {k}" for k, n in numbers["transactions_by_kind"].items())
     print(f"host sent         {kinds}")
+    idle = numbers["idle"]
+    crowding = "crowded: every member blocks" if idle["crowded"] else "members may poll"
+    print(
+        f"idle strategy     {idle['strategy']} on the {idle['medium']} medium, "
+        f"{idle['members_here']} members on {idle['cpus']} CPUs ({crowding})"
+    )
     for name, cost in numbers["per_cycle_by_process"].items():
         print(
             f"  {name:24} {cost['cpu_us']:7.1f} us CPU  {cost['wakeups']:5.2f} wake-ups  "
