@@ -20,7 +20,6 @@ from fw1394.boards.snake2010.spec import (
     WATCHDOG_PRESCALER,
 )
 from fw1394.demo.counting import CountingPort
-from fw1394.demo.overlap import OverlappingPort
 from fw1394.demo.pacing import Waker, tighten_timer_slack
 from fw1394.demo.processes import children, per_cycle, snapshot, wait_idle
 from fw1394.engine import FailureReason
@@ -120,8 +119,7 @@ def run_demo(
     with _idle_for_children(idle), launched as bus, _tap(config, capture) as tap:
         bus.wait_members()
         with BusPort(config, idle=idle) as bus_port:
-            overlapping = OverlappingPort(bus_port)
-            port = CountingPort(overlapping)
+            port = CountingPort(bus_port)
             nodes = [phy for phy, member in bus_port.nodes() if not member.host]
             robot = MultiBoard(
                 [Board(port, node, axes) for node, axes in zip(nodes, AXES_PER_BOARD, strict=True)]
@@ -131,7 +129,7 @@ def run_demo(
             result.members_here = bus_port.station.members_here()
             pids = _demo_processes(launched, tap)
             before, counted = snapshot(pids), port.counts.copy()
-            _servo(robot, result, seconds, rate_hz, progress, sample_every, overlapping)
+            _servo(robot, result, seconds, rate_hz, progress, sample_every)
             result.processes = per_cycle(before, snapshot(pids), result.cycles)
             result.servo_transactions = dict(port.counts - counted)
             robot.set_power_control(robot.power_word(range(robot.num_axes), on=False))
@@ -224,7 +222,6 @@ def _servo(
     rate_hz: float,
     progress: Progress | None,
     sample_every: int,
-    overlapping: OverlappingPort,
 ) -> None:
     targets = [trajectory(axis) for axis in range(robot.num_axes)]
     loop = PositionLoop(robot, targets, GAINS, rate_hz=rate_hz)
@@ -253,10 +250,7 @@ def _servo(
         loop.cycle = round((now - start) * rate_hz)
         loop_time = loop.time
         try:
-            # The boards' writes do not wait for each other's acks
-            # (fw1394.demo.overlap); the cycle ends when all have ended.
-            with overlapping.cycle():
-                errors = loop.step()
+            errors = loop.step()
         except TransactionError as error:
             if error.reason != FailureReason.bus_reset:
                 raise
