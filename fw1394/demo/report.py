@@ -51,6 +51,21 @@ def summary(result: DemoResult) -> dict[str, Any]:
         "transactions_by_kind": result.transactions_by_kind,
         "servo_transactions_by_kind": result.servo_transactions,
         "per_cycle_by_process": result.processes,
+        # The goals' figures: every measured process together, and the share of
+        # cycles that started late.
+        "cpu_us_per_cycle": round(sum(p["cpu_us"] for p in result.processes.values()), 1),
+        "cpus_busy": round(
+            sum(p["cpu_us"] for p in result.processes.values())
+            * result.cycles
+            / result.seconds
+            / 1e6,
+            3,
+        )
+        if result.seconds
+        else 0.0,
+        "overrun_percent": round(100 * result.overruns / result.cycles, 2)
+        if result.cycles
+        else 0.0,
         "idle": {
             "strategy": result.idle,
             "medium": result.medium,
