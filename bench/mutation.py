@@ -82,6 +82,7 @@ PLAN: dict[str, tuple[str, ...]] = {
     "fw1394/transport/link.py": (
         "tests/transport/test_link.py",
         "tests/transport/test_link_edges.py",
+        "tests/transport/test_link_mutants.py",
     ),
     "fw1394/boards": ("tests/boards", "tests/node/test_config_rom.py"),
     "fw1394/capture/formats": (
@@ -93,6 +94,8 @@ PLAN: dict[str, tuple[str, ...]] = {
         "tests/capture/test_pcapng_options_edges.py",
         "tests/capture/test_capture_formats_edges.py",
         "tests/capture/test_known_answer_trace.py",
+        "tests/capture/test_live_capture_mutants.py",
+        "tests/capture/test_capture_formats_mutants.py",
     ),
     "fw1394/fuzz/judge.py": (
         "tests/fuzz/test_fuzz_oracles.py",

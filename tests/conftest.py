@@ -24,6 +24,7 @@ from pathlib import Path
 
 import pytest
 from bus_support import LaunchBus, bus_name, stop, wait_until_gone
+from hypothesis import HealthCheck, settings
 
 # The guard's fixture and hook, installed for the whole suite.
 from spawn_guard import only_marked_tests_spawn as only_marked_tests_spawn
@@ -32,6 +33,14 @@ from spawn_guard import pytest_runtest_setup as pytest_runtest_setup
 import fw1394
 from fw1394.transport.sansio.config import BusConfig
 from fw1394.transport.supervision.launch import LaunchedBus
+
+# Hypothesis's per-example deadline and its "too slow" health check are timed
+# assertions: on a loaded machine (or under xdist with more processes than
+# cores) a 200 ms example fails a property that holds. The properties and their
+# example counts stay; only the clock stops deciding. Loaded here, before any
+# test module builds its @settings, so those inherit it.
+settings.register_profile("suite", deadline=None, suppress_health_check=[HealthCheck.too_slow])
+settings.load_profile("suite")
 
 
 def pytest_configure(config: pytest.Config) -> None:

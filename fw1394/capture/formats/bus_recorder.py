@@ -44,6 +44,7 @@ def record_bus(
     """Record bus ``bus`` into ``path`` until ``stop``, a duration or a count; how many records."""
     with BusTap(bus) as tap:
         writer = open_writer(path, bus, pcap=pcap)
+        writer.flush()  # the header on disk tells whoever waits for it that the tap listens
         try:
             return capture_records(tap, writer, Limits(stop, duration, count), show)
         finally:

@@ -1,0 +1,87 @@
+"""QLA board parts at edges the register tests do not reach.
+
+Facts from jhu-eth1394.md: STATUS bits 3:0 are the amplifier enables of axes 1-4
+(bit n-1: axis n, §4); the hub's real-time block starts with the 49.152 MHz ticks
+since the broadcast query (§4); a packet of another bus generation is dropped
+unless it must not be forwarded (§2.7). The PROM instruction codes are the M25P16
+data sheet's (bulk erase 0xC7, sector erase 0xD8, write enable 0x06); an
+instruction the chip does not know does nothing.
+"""
+
+from __future__ import annotations
+
+from fw1394.boards.qla1.board import Qla1Board
+from fw1394.boards.qla1.ethernet import EthernetPort, Reply
+from fw1394.boards.qla1.firewire import ClockedBoard
+from fw1394.boards.qla1.hub import HubBlock, HubState
+from fw1394.boards.qla1.prom import ConfigProm
+from fw1394.boards.qla1.status import BoardControl
+from fw1394.boards.snake2010.regmap import REGISTER_MAP as SNAKE2010_MAP
+from fw1394.engine import JHU_FIRMWARE, Responder
+from fw1394.packets.nodeid import node_id
+
+WRITE_ENABLE = 0x06
+
+
+def test_an_amplifier_request_enables_the_bit_of_its_axis() -> None:
+    for axis in (1, 2, 3, 4):
+        control = BoardControl(power_enable=True)
+        control.request_amp(axis, True)
+        assert control.amps_enabled == 1 << (axis - 1)
+        control.request_amp(axis, False)
+        assert control.amps_enabled == 0
+
+
+def test_a_kept_block_counts_its_ticks_from_the_query() -> None:
+    hub = HubState(board_id=0)
+    hub.query(1 << 16 | 0b11, now=1_000)
+    made_elsewhere = HubBlock(sequence=1, update_ticks=7, quadlets=(1, 2, 3))
+    hub.keep(1, made_elsewhere, now=1_500)
+    assert hub.blocks[1].update_ticks == 500
+    assert hub.blocks[1].quadlets == (1, 2, 3)
+
+
+def test_an_instruction_the_prom_does_not_know_erases_nothing() -> None:
+    prom = ConfigProm()
+    prom.store(0x100, b"\x12\x34")
+    for unknown in (0xE0, 0xFF):
+        prom.command(WRITE_ENABLE << 24, now=0)
+        prom.command(unknown << 24, now=0)
+        assert prom.read_bytes(0x100, 2) == b"\x12\x34"
+
+
+class _Bus:
+    """A FireWire bus in generation 5, not resetting; the board is node 0."""
+
+    node_id = 0
+    generation = 5
+    resetting = False
+
+
+def _port() -> EthernetPort:
+    board = Qla1Board(board_id=0, physical_id=0)
+    return EthernetPort(board, Responder(node_id(0), ClockedBoard(board), JHU_FIRMWARE), _Bus())
+
+
+#: jhu-eth1394.md §1.6: quadlet read of HW_VERSION (register 4) on node 0, tl=7.
+QREAD_HW_VERSION = bytes.fromhex("ffc01c40ffd0000000000004a9927b79")
+
+
+def test_a_request_of_another_generation_is_dropped_unless_it_must_not_be_forwarded() -> None:
+    # §2.7: without NOFORWARD, a generation other than the FPGA's drops the packet and
+    # a read is answered with the extra bytes alone; with NOFORWARD it is served.
+    (dropped,) = _port().receive(b"\x00\x04" + QREAD_HW_VERSION, ("127.0.0.1", 5000), 0.0)
+    assert isinstance(dropped, Reply) and dropped.packet == b""
+    assert dropped.extra.packet_dropped
+    (served,) = _port().receive(b"\x01\x04" + QREAD_HW_VERSION, ("127.0.0.1", 5000), 0.0)
+    assert isinstance(served, Reply) and len(served.packet) == 20
+    assert not served.extra.packet_dropped
+    (current,) = _port().receive(b"\x00\x05" + QREAD_HW_VERSION, ("127.0.0.1", 5000), 0.0)
+    assert isinstance(current, Reply) and len(current.packet) == 20
+
+
+def test_the_snake2010_spots_hit_only_holes_of_its_map() -> None:
+    # docs/boards/snake2010.md: global devices 5-15 are unmapped; the spots (addresses a
+    # fuzzer hits besides the registers) are such holes and the decoder's edges.
+    assert all(SNAKE2010_MAP.at(spot) is None for spot in SNAKE2010_MAP.spots)
+    assert {5, 6, 7} <= set(SNAKE2010_MAP.spots)
