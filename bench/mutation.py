@@ -95,6 +95,7 @@ PLAN: dict[str, tuple[str, ...]] = {
         "tests/capture/test_capture_formats_edges.py",
         "tests/capture/test_known_answer_trace.py",
         "tests/capture/test_live_capture_mutants.py",
+        "tests/capture/test_capture_formats_mutants.py",
     ),
     "fw1394/fuzz/judge.py": (
         "tests/fuzz/test_fuzz_oracles.py",

@@ -16,6 +16,7 @@ from fw1394.boards.qla1.firewire import ClockedBoard
 from fw1394.boards.qla1.hub import HubBlock, HubState
 from fw1394.boards.qla1.prom import ConfigProm
 from fw1394.boards.qla1.status import BoardControl
+from fw1394.boards.snake2010.regmap import REGISTER_MAP as SNAKE2010_MAP
 from fw1394.engine import JHU_FIRMWARE, Responder
 from fw1394.packets.nodeid import node_id
 
@@ -77,3 +78,10 @@ def test_a_request_of_another_generation_is_dropped_unless_it_must_not_be_forwar
     assert not served.extra.packet_dropped
     (current,) = _port().receive(b"\x00\x05" + QREAD_HW_VERSION, ("127.0.0.1", 5000), 0.0)
     assert isinstance(current, Reply) and len(current.packet) == 20
+
+
+def test_the_snake2010_spots_hit_only_holes_of_its_map() -> None:
+    # docs/boards/snake2010.md: global devices 5-15 are unmapped; the spots (addresses a
+    # fuzzer hits besides the registers) are such holes and the decoder's edges.
+    assert all(SNAKE2010_MAP.at(spot) is None for spot in SNAKE2010_MAP.spots)
+    assert {5, 6, 7} <= set(SNAKE2010_MAP.spots)

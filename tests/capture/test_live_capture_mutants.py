@@ -566,6 +566,19 @@ def test_the_acks_after_the_count_are_awaited_only_for_the_grace_time() -> None:
     assert all(left > 0 for left in endless.timeouts)  # never asked to wait for nothing
 
 
+def test_a_capture_that_runs_out_of_time_before_its_count_waits_for_no_acks() -> None:
+    class Acks(ScriptedSource):
+        def receive(self, timeout: float) -> BusRecord | None:
+            self.timeouts.append(timeout)
+            time.sleep(min(timeout, 0.01))
+            return ack(0)
+
+    source = Acks([])
+    limits = Limits(threading.Event(), duration=0.05, count=100)
+    assert capture_records(source, pcapng_writer()[0], limits) == 0
+    assert source.timeouts and max(source.timeouts) <= 0.05  # no grace after the time is up
+
+
 def test_a_stop_request_ends_a_capture_at_once_even_at_its_count() -> None:
     stop = threading.Event()
     source = ScriptedSource([packet(1), ack(2), ack(3)])

@@ -15,13 +15,13 @@ from typing import cast
 import pytest
 
 from fw1394.boards.memory.board import MemorySpace
-from fw1394.engine import THESIS_FPGA, Requester, Responder
-from fw1394.packets import QuadletReadRequest
+from fw1394.engine import IEEE1394_NODE, THESIS_FPGA, Requester, Responder
+from fw1394.packets import BlockReadRequest, BlockWriteRequest, QuadletReadRequest
 from fw1394.packets.fast import encode_packet
 from fw1394.transport.link import LinkLayer, RequesterLink, ResponderLink
 from fw1394.transport.sansio.membership import BusReset
 from fw1394.transport.sansio.seal import DropCounts
-from fw1394.transport.sansio.wire import FrameHeader
+from fw1394.transport.sansio.wire import FrameHeader, FrameTooLarge
 from fw1394.transport.station import Station
 
 ASYNC, ACK, PHY = 1, 2, 3
@@ -157,3 +157,43 @@ def test_reset_hooks_and_options_take_keywords_only() -> None:
     space = MemorySpace(16)
     with pytest.raises(TypeError):
         ResponderLink(Responder(node_id=0xFFFF, space=space), lambda k, d, p: None, None, 1.0)  # type: ignore[call-arg]
+
+
+def test_a_block_write_with_a_bad_data_crc_is_acked_data_error_by_an_ieee1394_node() -> None:
+    # IEEE 1394-1995 §6.2.4.3: ack_data_error is code 0xD, sent as 0xD2 (code, complement).
+    sent: Sent = []
+    link = ResponderLink(
+        Responder(node_id=0xFFFF, space=MemorySpace(4096), policy=IEEE1394_NODE),
+        lambda k, d, p: sent.append((k, d, p)),
+    )
+    link.apply([BusReset(generation=0, phy_id=NODE_PHY, members=(), initiator=0)])
+    write = BlockWriteRequest(
+        destination_id=NODE_ID, tlabel=5, source_id=HOST_ID, offset=0x40, data=b"abcdefgh"
+    )
+    raw = bytearray(encode_packet(write))
+    raw[-1] ^= 1  # the data CRC
+    link.take(FrameHeader(ASYNC, 0, 7, 0, HOST_PHY, NODE_PHY, sequence=77), bytes(raw), 0.0)
+    assert sent == [(ACK, HOST_PHY, struct.pack(">BBHI", 0xD2, 5, 0, 77))]
+
+
+def test_a_decoded_read_whose_response_no_datagram_carries_is_acked_alone() -> None:
+    sent: Sent = []
+    dropped: list[int] = []
+
+    def send(kind: int, destination: int, payload: bytes) -> None:
+        if len(payload) > 64:
+            raise FrameTooLarge(len(payload))
+        sent.append((kind, destination, payload))
+
+    link = ResponderLink(
+        Responder(node_id=0xFFFF, space=MemorySpace(4096), policy=THESIS_FPGA),
+        send,
+        on_drop=lambda to, error: dropped.append(to),
+    )
+    link.apply([BusReset(generation=3, phy_id=NODE_PHY, members=(), initiator=0)])
+    read = BlockReadRequest(
+        destination_id=NODE_ID, tlabel=4, source_id=HOST_ID, offset=0, data_length=256
+    )
+    link.serve_packet(read, False, HOST_PHY, 9, 0.0)
+    assert sent == [(ACK, HOST_PHY, struct.pack(">BBHI", ACK_PENDING_BYTE, 4, 0, 9))]
+    assert dropped == [HOST_PHY]
