@@ -212,10 +212,6 @@ class AdapterHost(BusHost):
             lambda owner, data: self.on_answer(owner, data),
         )
 
-    @property
-    def bus_socket(self) -> socket.socket:
-        return self.station.medium.sock
-
     def next_wake(self) -> float:
         due, other = self.link.due, self.station.wake_by
         if other < due:
