@@ -14,6 +14,7 @@ A test that starts a process without the ``process`` marker fails (see
 from __future__ import annotations
 
 import compileall
+import os
 import re
 import shutil
 import subprocess
@@ -52,6 +53,22 @@ def pytest_configure(config: pytest.Config) -> None:
         config.option.maxschedchunk = 1
     if not hasattr(config, "workerinput"):  # once per run, not once per xdist worker
         _compile_package()
+
+
+def pytest_xdist_auto_num_workers(config: pytest.Config) -> int | None:
+    """``-n auto``: two workers per CPU, or one when the run starts no process.
+
+    Most of a test that starts processes is waiting for them (bus start-up, leases,
+    timeouts, tshark and iverilog runs): with one worker per core, the cores idle
+    through those waits. A second worker per core runs another test meanwhile. The
+    in-process tests are CPU-bound, so ``-m "not process"`` gets one per core.
+    ``PYTEST_XDIST_AUTO_NUM_WORKERS`` still decides when it is set.
+    """
+    if os.environ.get("PYTEST_XDIST_AUTO_NUM_WORKERS"):
+        return None
+    cpus = len(os.sched_getaffinity(0))
+    in_process_only = "not process" in (config.getoption("markexpr") or "")
+    return cpus if in_process_only else 2 * cpus
 
 
 # __pycache__ directories this run wrote, removed again at its end.
