@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 from fw1394.capture.formats import batch as batches
-from fw1394.capture.formats import containers, kernel, nosy, sources
+from fw1394.capture.formats import containers, kernel, kernel_trace, nosy, sources
 from fw1394.capture.formats.chunks import read_into
 from fw1394.capture.formats.pseudo_header import decode as decode_pseudo_header
 from fw1394.capture.formats.record import BusRecord, RecordType
@@ -284,3 +284,33 @@ def test_an_empty_block_before_the_interface_does_not_hide_its_link_type() -> No
     empty = struct.pack("<III", 0x99, 12, 12)
     assert sources.detect_head(section() + empty + interface(147), "empty.pcapng") == "fw1394"
     assert sources.detect_head(section() + empty + interface(1), "empty.pcapng") == "udp"
+
+
+def test_nosy_dump_records_are_numbered_from_frame_1(tmp_path: Path) -> None:
+    # Three bus resets: each record a little-endian length of 4 and the timestamp.
+    path = tmp_path / "resets.nosy"
+    path.write_bytes(b"".join(struct.pack("<iI", 4, 1000 * n) for n in range(3)))
+    (batch,) = [job() for job in sources.jobs(str(path), "nosy")]
+    assert [int(f) for f in batch.frame] == [1, 2, 3]
+
+
+def test_a_firewire_ohci_phy_line_gives_the_quadlet_and_its_inverse() -> None:
+    # tests/data/firewire-ohci-dmesg.txt, line 8.
+    line = "[  431.206331] firewire_ohci 0000:05:00.0: AT ack_complete, PHY 01bf0000 fe40ffff\n"
+    (batch,) = list(kernel.read_batches(io.StringIO(line)))
+    record = batch.record(0)
+    assert record.record_type == RecordType.phy_packet
+    assert record.data == bytes.fromhex("01bf0000fe40ffff")
+
+
+def test_a_pcap_header_cut_short_names_no_link_type() -> None:
+    head = struct.pack("<IHH", 0xA1B2C3D4, 2, 4)  # 8 of the header's 24 bytes
+    assert sources.detect_head(head, "short.pcap") == "udp"
+
+
+def test_kernel_times_reach_the_largest_signed_64_bit_nanosecond() -> None:
+    # 2**63 - 1 ns = 9223372036.854775807 s: the last time a record can hold.
+    assert kernel_trace.nanoseconds("9223372036", "854775807") == 2**63 - 1
+    assert kernel_trace.nanoseconds("5000000000", "5") == 5_000_000_000_500_000_000
+    with pytest.raises(kernel_trace.TraceLineError):
+        kernel_trace.nanoseconds("9223372036", "854775808")
