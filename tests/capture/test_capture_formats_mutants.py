@@ -18,6 +18,7 @@ import pytest
 
 from fw1394.capture.formats import batch as batches
 from fw1394.capture.formats import containers, kernel, kernel_trace, nosy, sources
+from fw1394.capture.formats import eth1394_udp as udp
 from fw1394.capture.formats.chunks import read_into
 from fw1394.capture.formats.pseudo_header import decode as decode_pseudo_header
 from fw1394.capture.formats.record import BusRecord, RecordType
@@ -314,3 +315,20 @@ def test_kernel_times_reach_the_largest_signed_64_bit_nanosecond() -> None:
     assert kernel_trace.nanoseconds("5000000000", "5") == 5_000_000_000_500_000_000
     with pytest.raises(kernel_trace.TraceLineError):
         kernel_trace.nanoseconds("9223372036", "854775808")
+
+
+def test_header_quadlets_past_a_short_packets_end_are_zero_not_the_next_packet() -> None:
+    short = BusRecord(1, RecordType.async_packet, bytes.fromhex("ffc00c40ffc1ffff00000004"), 5)
+    after = BusRecord(2, RecordType.async_packet, b"\xee" * 20, 5)
+    batch = batches.from_records([short, after], [1, 2])
+    quadlets = batches.header_quadlets(batch, None, 5).tolist()
+    assert quadlets[0] == [0xFFC00C40, 0xFFC1FFFF, 4, 0, 0]
+    assert quadlets[1] == [0xEEEEEEEE] * 5
+
+
+def test_frames_too_short_for_their_headers_are_other_traffic_and_unknown_links_a_problem() -> None:
+    ethernet = bytes(12) + b"\x08\x00"
+    assert udp.udp_payload(1, ethernet[:10]) is None  # not even an Ethernet header
+    assert udp.udp_payload(1, ethernet + b"\x45\x00\x00\x1c\x00") is None  # IPv4 cut short
+    assert udp.udp_payload(1, ethernet + b"\x45" + bytes(18)) is None  # one byte short
+    assert udp.udp_payload(999, bytes(40)) == "unsupported link type 999"
