@@ -24,11 +24,12 @@ first (ABAB), and prints the per-round ratio this / REF.
 The machine this runs on may be shared: compare ratios of one run, not
 absolute times across runs.
 
-Every process of the bench (nodes, adapter, the C program through the library)
-waits as ``FW1394_IDLE`` says (``--idle`` sets it): adaptive by default, polling
-for a while after traffic while every runnable task has a CPU, which on a loaded
-machine means blocking. CPU per transaction is reported for the adapter, the
-nodes and the program; under a polling strategy it includes the polling.
+The bus's processes (nodes, adapter) wait as ``FW1394_IDLE`` says (``--idle``
+sets it): adaptive by default, polling for a while after traffic while every
+runnable task has a CPU, which on a loaded machine means blocking; the C program
+sleeps until each reply (the library never polls). CPU per transaction is
+reported for the adapter, the nodes and the program; under a polling strategy it
+includes the polling.
 """
 
 from __future__ import annotations

@@ -146,7 +146,8 @@ def _print_summary(numbers: dict[str, Any]) -> None:
     )
     print(
         f"loop period       p50 {period['p50']} us   p99 {period['p99']} us   "
-        f"max {period['max']} us   overruns {numbers['overruns']}"
+        f"max {period['max']} us   overruns {numbers['overruns']} "
+        f"({numbers['overrun_percent']} %)"
     )
     print(
         f"bus time/cycle    p50 {bus['p50']} us   p99 {bus['p99']} us   max {bus['max']} us "
@@ -154,11 +155,21 @@ def _print_summary(numbers: dict[str, Any]) -> None:
     )
     kinds = ", ".join(f"{n} {k}" for k, n in numbers["transactions_by_kind"].items())
     print(f"host sent         {kinds}")
+    idle = numbers["idle"]
+    crowding = "crowded: every member blocks" if idle["crowded"] else "members may poll"
+    print(
+        f"idle strategy     {idle['strategy']} on the {idle['medium']} medium, "
+        f"{idle['members_here']} members on {idle['cpus']} CPUs ({crowding})"
+    )
     for name, cost in numbers["per_cycle_by_process"].items():
         print(
             f"  {name:24} {cost['cpu_us']:7.1f} us CPU  {cost['wakeups']:5.2f} wake-ups  "
             f"{cost['preemptions']:5.2f} preemptions per cycle"
         )
+    print(
+        f"  {'all of them':24} {numbers['cpu_us_per_cycle']:7.1f} us CPU per cycle "
+        f"({numbers['cpus_busy']:.2f} CPUs busy)"
+    )
     print(
         f"watchdog trips    {numbers['watchdog_trips']}   "
         f"bus resets during the loop {numbers['bus_resets']}"

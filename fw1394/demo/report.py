@@ -12,6 +12,7 @@ from typing import Any
 from fw1394.boards.snake2010.spec import ENCODER_MIDPOINT
 from fw1394.demo.run import DemoResult
 from fw1394.percentile import percentile
+from fw1394.transport.media.idle import crowded
 
 
 def tracking_errors(result: DemoResult) -> list[float]:
@@ -50,6 +51,29 @@ def summary(result: DemoResult) -> dict[str, Any]:
         "transactions_by_kind": result.transactions_by_kind,
         "servo_transactions_by_kind": result.servo_transactions,
         "per_cycle_by_process": result.processes,
+        # The goals' figures: every measured process together, and the share of
+        # cycles that started late.
+        "cpu_us_per_cycle": round(sum(p["cpu_us"] for p in result.processes.values()), 1),
+        "cpus_busy": round(
+            sum(p["cpu_us"] for p in result.processes.values())
+            * result.cycles
+            / result.seconds
+            / 1e6,
+            3,
+        )
+        if result.seconds
+        else 0.0,
+        "overrun_percent": round(100 * result.overruns / result.cycles, 2)
+        if result.cycles
+        else 0.0,
+        "idle": {
+            "strategy": result.idle,
+            "medium": result.medium,
+            "members_here": result.members_here,
+            "cpus": result.cpus,
+            # More members on this host than CPUs: adaptive members block (never poll).
+            "crowded": crowded(result.members_here, result.cpus),
+        },
         "overruns": result.overruns,
         "watchdog_trips": result.watchdog_trips,
         "bus_resets": result.bus_resets,

@@ -20,13 +20,14 @@ from fw1394.boards.snake2010.spec import (
     WATCHDOG_PRESCALER,
 )
 from fw1394.demo.counting import CountingPort
-from fw1394.demo.pacing import Waker
+from fw1394.demo.pacing import Waker, tighten_timer_slack
 from fw1394.demo.processes import children, per_cycle, snapshot, wait_idle
 from fw1394.engine import FailureReason
 from fw1394.engine.space import TICKS_PER_SECOND
 from fw1394.host import Board, MultiBoard, PdGains, PositionLoop
 from fw1394.host.bus_port import BusPort
 from fw1394.transport.bus_host import TransactionError
+from fw1394.transport.media.choice import medium_name
 from fw1394.transport.media.idle import ENVIRONMENT, IdleStrategy
 from fw1394.transport.sansio.config import BusConfig
 from fw1394.transport.supervision.launch import LaunchedBus
@@ -81,6 +82,12 @@ class DemoResult:
     #: Per process (host, nodes, adapter, supervisor, capture): CPU µs, wake-ups and
     #: preemptions per servo cycle (:mod:`fw1394.demo.processes`).
     processes: dict[str, dict[str, float]] = field(default_factory=dict)
+    #: How the members waited for frames (:mod:`fw1394.transport.media.idle`), the
+    #: medium, and whether the bus was crowded (more members on this host than CPUs).
+    idle: str = ""
+    medium: str = ""
+    members_here: int = 0
+    cpus: int = 0
 
 
 Progress = Callable[[DemoResult, float], None]
@@ -104,7 +111,7 @@ def run_demo(
     (:mod:`fw1394.transport.media.idle`; default ``FW1394_IDLE``, else adaptive).
     """
     config = BusConfig(name=bus_name or f"demo-{os.getpid()}")
-    result = DemoResult(bus_name=config.name)
+    result = DemoResult(bus_name=config.name, medium=medium_name(config), cpus=os.cpu_count() or 1)
     # With the bus's host adapter, so `fw1394 read`/`watch` can share it while the demo runs.
     launched = LaunchedBus(
         config, len(BOARDS), board=",".join(BOARDS), node_arguments=("--adapter",)
@@ -118,6 +125,8 @@ def run_demo(
                 [Board(port, node, axes) for node, axes in zip(nodes, AXES_PER_BOARD, strict=True)]
             )
             _retrying_bus_resets(lambda: _power_up(port, robot, nodes))
+            result.idle = str(bus_port.station.idle)
+            result.members_here = bus_port.station.members_here()
             pids = _demo_processes(launched, tap)
             before, counted = snapshot(pids), port.counts.copy()
             _servo(robot, result, seconds, rate_hz, progress, sample_every)
@@ -222,6 +231,7 @@ def _servo(
     next_report = start
     tripped = False
     cycle = 0
+    tighten_timer_slack()
     waker = Waker()
     while (now := time.perf_counter()) < end:
         if now < deadline:

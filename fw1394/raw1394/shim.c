@@ -17,7 +17,6 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <poll.h>
-#include <sched.h>
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -139,6 +138,7 @@ struct raw1394_handle {
 	quadlet_t *echoes;
 	size_t echo_count;
 	int woken;
+	int signalled;	/* the eventfd is readable (this library made it so) */
 	int broken;	/* the connection failed: waits end */
 	struct iso iso;
 };
@@ -215,7 +215,7 @@ static uint32_t put_request(raw1394handle_t h, const struct request *r)
 {
 	size_t head = 4 + 1 + 1 + 2 + 4 + 8 + 4 + 1 + 4;
 	size_t body = head + 4 + r->argument_length + 4 + r->data_length;
-	unsigned char *m, *p;
+	unsigned char small[256], *m, *p;
 	uint32_t number;
 	int result;
 
@@ -227,7 +227,8 @@ static uint32_t put_request(raw1394handle_t h, const struct request *r)
 		errno = EINVAL;
 		return 0;
 	}
-	m = malloc(4 + body);
+	/* A transaction's request fits on the stack; a large block or ROM goes to the heap. */
+	m = 4 + body <= sizeof small ? small : malloc(4 + body);
 	if (!m)
 		return 0;
 	number = ++h->numbers;
@@ -252,7 +253,8 @@ static uint32_t put_request(raw1394handle_t h, const struct request *r)
 	if (r->data_length)
 		memcpy(p, r->data, r->data_length);
 	result = write_all(h, m, 4 + body);
-	free(m);
+	if (m != small)
+		free(m);
 	return result < 0 ? 0 : number;
 }
 
@@ -575,7 +577,7 @@ static int dispatch(raw1394handle_t h, const struct reply *r)
 		p->done = 1;
 		p->generation = r->generation;
 		p->phy = r->phy;
-		if (r->data_length) {
+		if (r->data_length && !p->result) { /* with a result buffer, the data is there */
 			p->data = malloc(r->data_length);
 			if (p->data) {
 				memcpy(p->data, r->data, r->data_length);
@@ -606,14 +608,17 @@ static void signal_pending(raw1394handle_t h)
 	int buffered = h->in_length >= 4 && h->in_length >= 4 + get32(h->in);
 	int saved = errno; /* a call that succeeds leaves errno as it found it */
 
-	if (h->event < 0)
+	int wanted = buffered || h->echo_count || h->woken || (h->iso.started && h->iso.xmit);
+
+	/* Most replies change nothing: the eventfd is touched only when it must change. */
+	if (h->event < 0 || wanted == h->signalled)
 		return;
 	while (read(h->event, &count, sizeof count) > 0)
 		;
-	if (buffered || h->echo_count || h->woken || (h->iso.started && h->iso.xmit)) {
+	h->signalled = 0;
+	if (wanted) {
 		count = 1;
-		if (write(h->event, &count, sizeof count) < 0)
-			count = 0;
+		h->signalled = write(h->event, &count, sizeof count) == sizeof count;
 	}
 	errno = saved;
 }
@@ -622,119 +627,10 @@ static int iso_pump(raw1394handle_t h);
 
 /* ---- waiting for a reply -------------------------------------------------------------
  *
- * A blocking call waits for its reply the way the bus's members wait for frames
- * (FW1394_IDLE: block, spin, adaptive or adaptive:MICROSECONDS; docs/libraw1394.md):
- * adaptively, by default, it polls the socket for up to 250 us, yielding the CPU
- * between polls, before it sleeps, so that a reply that comes within that window
- * finds it awake; waking a sleeping process costs about as much as a quick
- * transaction. It polls only while no more tasks are runnable than there are CPUs
- * (looked up every 5 ms): otherwise polling would take the CPU from the adapter or
- * the node that is to answer. */
-
-#define DEFAULT_WINDOW_NS 250000L
-#define CHECK_EVERY_NS 5000000L
-
-static long window_ns = -1;	/* -1: FW1394_IDLE not read yet */
-static long checked_ns = -CHECK_EVERY_NS;
-static int cores_enough = 1;
-static int said_idle;
-
-static long now_ns(void)
-{
-	struct timespec t;
-
-	clock_gettime(CLOCK_MONOTONIC, &t);
-	return t.tv_sec * 1000000000L + t.tv_nsec;
-}
-
-/* FW1394_IDLE read as fw1394.transport.media.idle.parse_idle reads it: the window in
- * ns, 0 for block, -2 for spin (no window). */
-static long idle_window(void)
-{
-	const char *given = getenv("FW1394_IDLE");
-	char text[64], *name = text, *end;
-	size_t n;
-	double micros;
-
-	if (!given)
-		given = "";
-	while (*given == ' ' || *given == '\t' || *given == '\n')
-		given++;
-	for (n = 0; given[n] && n < sizeof text - 1; n++)
-		text[n] = given[n] >= 'A' && given[n] <= 'Z' ? given[n] - 'A' + 'a' : given[n];
-	while (n && (text[n - 1] == ' ' || text[n - 1] == '\t' || text[n - 1] == '\n'))
-		n--;
-	text[n] = 0;
-	if (!*name || !strcmp(name, "adaptive") || !strcmp(name, "adaptive:"))
-		return DEFAULT_WINDOW_NS;
-	if (!strcmp(name, "block"))
-		return 0;
-	if (!strcmp(name, "spin"))
-		return -2;
-	if (!strncmp(name, "adaptive:", 9)) {
-		micros = strtod(name + 9, &end);
-		if (end != name + 9 && !*end && micros >= 0 && micros <= 1e6)
-			return (long)(micros * 1000);
-	}
-	say_once(&said_idle, "FW1394_IDLE: expected block, spin, adaptive or "
-		 "adaptive:MICROSECONDS (0-1000000); waiting adaptively");
-	return DEFAULT_WINDOW_NS;
-}
-
-/* Whether no more tasks are runnable than there are CPUs (the 4th field of
- * /proc/loadavg counts them; where it cannot be read, yes). */
-static int every_task_has_a_cpu(void)
-{
-	char text[128];
-	ssize_t n;
-	int fd = open("/proc/loadavg", O_RDONLY | O_CLOEXEC);
-	long running = 0;
-	const char *field = text;
-	int spaces = 0;
-
-	if (fd < 0)
-		return 1;
-	n = read(fd, text, sizeof text - 1);
-	close(fd);
-	if (n <= 0)
-		return 1;
-	text[n] = 0;
-	while (*field && spaces < 3)
-		spaces += *field++ == ' ';
-	running = strtol(field, NULL, 10);
-	return running <= sysconf(_SC_NPROCESSORS_ONLN);
-}
-
-/* Poll for the reply while the window lasts; bytes taken (0: wait in poll now). */
-static ssize_t poll_for_reply(raw1394handle_t h)
-{
-	long start, now;
-
-	if (window_ns == -1)
-		window_ns = idle_window();
-	if (!window_ns)
-		return 0;
-	start = now_ns();
-	if (window_ns > 0 && start - checked_ns >= CHECK_EVERY_NS) {
-		checked_ns = start;
-		cores_enough = every_task_has_a_cpu();
-	}
-	if (window_ns > 0 && !cores_enough)
-		return 0;
-	for (now = start; window_ns < 0 || now - start < window_ns; now = now_ns()) {
-		ssize_t got = recv(h->sock, h->in + h->in_length, h->in_capacity - h->in_length,
-				   MSG_DONTWAIT);
-
-		if (got > 0) {
-			h->in_length += got;
-			return got;
-		}
-		if (got == 0 || (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR))
-			return 0; /* poll and recv below report it */
-		sched_yield();
-	}
-	return 0;
-}
+ * A blocking call sleeps in recv until its reply comes: it does not poll. On a
+ * machine with fewer cores than the processes of a transaction (the program, the
+ * adapter, the node), a polling program takes the CPU from the adapter or the node
+ * that is to answer it. loop_iterate sleeps in poll on the socket and the eventfd. */
 
 /*
  * Handle one message (waiting for it if need be). ``user``: also return echoes
@@ -759,23 +655,26 @@ static int iterate(raw1394handle_t h, int user)
 		if (h->in_length >= 4) {
 			uint32_t size = get32(h->in);
 			struct reply r;
-			int result;
+			int result, parsed;
 
 			if (size > MAX_MESSAGE)
 				return broken(h, EPROTO);
 			if (h->in_length >= 4 + size) {
-				unsigned char *body = malloc(size ? size : 1);
+				/* Out of the buffer first: a handler may call the library, which
+				 * reads into it. A transaction's reply fits on the stack. */
+				unsigned char small[512];
+				unsigned char *body = size <= sizeof small ? small : malloc(size);
 				if (!body)
 					return broken(h, ENOMEM);
 				memcpy(body, h->in + 4, size);
 				memmove(h->in, h->in + 4 + size, h->in_length - 4 - size);
 				h->in_length -= 4 + size;
-				if (parse_reply(body, size, &r) < 0) {
+				parsed = parse_reply(body, size, &r) == 0;
+				result = parsed ? dispatch(h, &r) : 0;
+				if (body != small)
 					free(body);
+				if (!parsed)
 					return broken(h, EPROTO);
-				}
-				result = dispatch(h, &r);
-				free(body);
 				signal_pending(h);
 				return result;
 			}
@@ -794,20 +693,20 @@ static int iterate(raw1394handle_t h, int user)
 				h->in = in;
 				h->in_capacity = capacity;
 			}
-			/* Only a blocking call polls: loop_iterate is the program's own wait. */
-			if (!user && poll_for_reply(h) > 0)
-				continue;
-			if (poll(fds, 2, -1) < 0) {
+			/* A blocking call waits for the adapter alone; wake-ups and echoes are
+			 * loop_iterate's, which watches the eventfd too. */
+			if (user && poll(fds, 2, -1) < 0) {
 				if (errno == EINTR)
 					continue;
 				return broken(h, errno);
 			}
-			if (fds[1].revents & POLLIN) {
+			if (user && (fds[1].revents & POLLIN)) {
 				uint64_t count;
 				if (read(h->event, &count, sizeof count) < 0 && errno != EAGAIN)
 					return -1;
+				h->signalled = 0;
 			}
-			if (!(fds[0].revents & (POLLIN | POLLHUP | POLLERR)))
+			if (user && !(fds[0].revents & (POLLIN | POLLHUP | POLLERR)))
 				continue;
 			got = recv(h->sock, h->in + h->in_length, h->in_capacity - h->in_length, 0);
 			if (got < 0 && (errno == EINTR || errno == EAGAIN))
@@ -1271,7 +1170,10 @@ int raw1394_wake_up(raw1394handle_t handle)
 	uint64_t one = 1;
 
 	handle->woken = 1;
-	return write(handle->event, &one, sizeof one) < 0 ? -1 : 0;
+	if (write(handle->event, &one, sizeof one) < 0)
+		return -1;
+	handle->signalled = 1;
+	return 0;
 }
 
 int raw1394_echo_request(raw1394handle_t handle, quadlet_t data)
@@ -1283,7 +1185,10 @@ int raw1394_echo_request(raw1394handle_t handle, quadlet_t data)
 		return -1;
 	handle->echoes = echoes;
 	echoes[handle->echo_count++] = data;
-	return write(handle->event, &one, sizeof one) < 0 ? -1 : 0;
+	if (write(handle->event, &one, sizeof one) < 0)
+		return -1;
+	handle->signalled = 1;
+	return 0;
 }
 
 int raw1394_reset_bus_new(raw1394handle_t handle, int type)

@@ -137,6 +137,8 @@ class Station:
         self.medium.filter_as_member(self.info.member_id, None, drop_acks)
         self.membership = Membership(self.info, time.monotonic(), timing)
         self._filtered_phy: int | None = None
+        #: The generation whose members on this host the medium was last told of.
+        self._shared_in = -1
         self._sequence = count(1)
         self._injector = FaultInjector(faults) if faults and faults.active else None
         self._delayed: list[tuple[float, int, bytes]] = []
@@ -306,6 +308,24 @@ class Station:
             if same_host and member.pid and not process_alive(member.pid):
                 self.membership.mark_dead(member.member_id, now)
 
+    def members_here(self) -> int:
+        """Members of this bus on this host (in this PID namespace), this one included."""
+        me = self.info
+        return max(
+            1,
+            sum(
+                m.address == me.address and m.pid_namespace == me.pid_namespace
+                for m in self.membership.members
+            ),
+        )
+
+    def _share_host(self) -> None:
+        # How the medium waits depends on whether its members outnumber the CPUs
+        # (fw1394.transport.media.idle); a stand-in medium in a test may not wait at all.
+        share = getattr(self.medium, "share_host", None)
+        if share is not None:
+            share(self.members_here())
+
     def _flush_control(self) -> None:
         # The link takes its new address before its self-ID (among these frames)
         # goes out: a member that has seen every self-ID may address us at once,
@@ -315,6 +335,9 @@ class Station:
         if phy != self._filtered_phy:
             self.medium.filter_as_member(self.info.member_id, phy, self._drop_acks)
             self._filtered_phy = phy
+        if self.membership.generation != self._shared_in:
+            self._shared_in = self.membership.generation
+            self._share_host()
         for out in self.membership.outgoing():
             self.send(out.kind, out.destination, out.payload)
 

@@ -23,7 +23,7 @@ from fw1394.boards.qla1.firewire import hub_broadcast
 from fw1394.boards.qla1.rack import Rack
 from fw1394.boards.qla1.rack_fast import RackFastPath
 from fw1394.boards.qla1.regs import HUB_QUERY
-from fw1394.boards.qla1.rt_blocks import decode_rev8_write, split_rev8_write
+from fw1394.boards.qla1.rt_blocks import RtWrite, decode_rev8_write, split_rev8_write
 from fw1394.packets import BlockReadRequest, BlockWriteRequest, QuadletWriteRequest, Request
 from fw1394.packets.eth1394_fast import request_datagram
 from fw1394.packets.fast import encode_packet
@@ -34,6 +34,7 @@ EVERY_NODE = 0xFFFF
 LOCAL_BUS_IDS = 0xFFC0
 DAC_VALID = 1 << 31
 RT_BLOCK_QUADLETS = 6  # header, 4 DAC commands, control
+NO_SHARE = RtWrite((), ())
 
 
 def snapshot(value: Any) -> Any:
@@ -287,6 +288,32 @@ def test_split_write_gives_each_board_its_decode(words: list[int], start: int) -
         assert shares.get(board_id, own) == own
         if board_id not in shares:
             assert not own.dac_commands and not own.control
+
+
+@st.composite
+def block_chains(draw: st.DrawFn) -> tuple[list[int], int]:
+    """Block writes as the host makes them, but with boards named more than once, blocks
+    of any length (0: the whole address span) and a chain cut anywhere; starting at
+    address 0 or just before it comes round."""
+    words: list[int] = []
+    for _ in range(draw(st.integers(0, 10))):
+        length = draw(st.sampled_from([0, 1, 2, 3, 6, 6, 6, 9]))
+        owner = draw(st.integers(0, 3))
+        words.append(draw(quadlet) & ~0xFFF | owner << 8 | length)
+        words += draw(st.lists(quadlet, min_size=max(length - 1, 0), max_size=8))
+    cut = draw(st.integers(0, len(words)))
+    return words[:cut], draw(st.one_of(st.just(0), st.integers(0xF8, 0xFF)))
+
+
+@settings(max_examples=200, deadline=None)
+@given(block_chains())
+def test_split_write_of_block_chains_gives_each_board_its_decode(
+    chain: tuple[list[int], int],
+) -> None:
+    words, start = chain
+    shares = split_rev8_write(words, start)
+    for board_id in range(16):
+        assert shares.get(board_id, NO_SHARE) == decode_rev8_write(words, start, board_id)
 
 
 @settings(max_examples=100, deadline=None)

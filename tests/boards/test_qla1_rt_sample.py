@@ -55,4 +55,4 @@ def test_a_kept_sample_is_the_sample_made_now(firmware: int, script: list[tuple[
         elif kind == "time":
             board.set_time(board.now + detail[0])
         block = board._rt_block()
-        assert block[1:] == fresh_block(board)
+        assert list(block[1:]) == fresh_block(board)

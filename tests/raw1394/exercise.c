@@ -193,6 +193,23 @@ int main(void)
 	CHECK("start_read x64", i == OUTSTANDING, "start %d", i);
 	CHECK("64 outstanding complete", serve_until(h, &tags_done, OUTSTANDING, 20) == 0 &&
 		      tags_ok == OUTSTANDING, "%d done, %d ok", tags_done, tags_ok);
+	/* Replies the library has read but not handled keep get_fd readable: after each
+	 * loop_iterate, until every one is handled, however they came in. */
+	tags_done = 0;
+	for (i = 0; i < 8; i++)
+		if (raw1394_start_read(h, 0xFFC0, BASE + 4 * i, 4, &buffers[i], i) < 0)
+			break;
+	for (n = 0; n < 8 && tags_done < 8; n++) {
+		struct pollfd pfd = { raw1394_get_fd(h), POLLIN, 0 };
+		if (poll(&pfd, 1, 5000) != 1 || raw1394_loop_iterate(h) < 0)
+			break;
+	}
+	CHECK("get_fd readable while replies wait", i == 8 && tags_done == 8, "%d of %d handled",
+	      tags_done, i);
+	{
+		struct pollfd pfd = { raw1394_get_fd(h), POLLIN, 0 };
+		CHECK("get_fd quiet once they are handled", poll(&pfd, 1, 0) == 0, "readable");
+	}
 	tags_done = 0;
 	CHECK("start_write", raw1394_start_write(h, 0xFFC0, BASE, 4, block, 0) == 0 &&
 		      serve_until(h, &tags_done, 1, 10) == 0, "start_write");

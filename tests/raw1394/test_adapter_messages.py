@@ -22,6 +22,8 @@ from fw1394.transport.host_adapter.protocol import (
     Reply,
     Request,
     Status,
+    ok_reply,
+    one_transfer,
     parse_reply,
     parse_request,
 )
@@ -146,6 +148,84 @@ def test_a_cut_reply_is_refused_by_both(reply: Reply, data: st.DataObject) -> No
         REPLY.parse(cut)
     with pytest.raises(ProtocolError):
         parse_reply(cut)
+
+
+@given(u32, st.integers(0, (1 << 40)), u8, blobs)
+def test_an_ok_reply_in_one_step_equals_the_description(
+    number: int, generation: int, phy: int, data: bytes
+) -> None:
+    described = REPLY.build(
+        {
+            "request": number,
+            "status": 0,
+            "generation": generation & 0xFFFFFFFF,
+            "phy": phy,
+            "ack": -1,
+            "rcode": -1,
+            "outcome_unknown": 0,
+            "reason": "",
+            "detail": "",
+            "data": data,
+        }
+    )
+    assert ok_reply(number, generation, phy, data) == LENGTH.pack(len(described)) + described
+
+
+# Reads and writes, the express path's, half of them with no lock argument.
+transfers = st.builds(
+    Request,
+    request=u32,
+    op=st.sampled_from([Op.read, Op.write, Op.lock, Op.send]),
+    node=u8,
+    offset=st.integers(0, (1 << 64) - 1),
+    length=u32,
+    quadlet=st.booleans(),
+    generation=u32,
+    argument=st.one_of(st.just(b""), blobs),
+    data=blobs,
+)
+
+
+@given(st.one_of(requests, transfers), st.binary(max_size=3))
+def test_one_transfer_reads_a_lone_read_or_write_as_the_description(
+    request: Request, extra: bytes
+) -> None:
+    frame = request.pack()
+    parsed = REQUEST.parse(body(frame))
+    found = one_transfer(frame)
+    if parsed.op not in (Op.read, Op.write) or parsed.argument:
+        assert found is None
+    else:
+        assert found == (
+            parsed.request,
+            parsed.op,
+            parsed.node,
+            parsed.generation,
+            parsed.offset,
+            parsed.length,
+            parsed.quadlet,
+            parsed.data,
+        )
+    # Anything but exactly one whole message goes the general way.
+    assert one_transfer(frame[:-1]) is None
+    assert one_transfer(LENGTH.pack(len(frame) - LENGTH.size + 1) + frame[LENGTH.size :]) is None
+    # A data length that is not what the message holds (the general way refuses it).
+    at = len(frame) - len(request.data) - 4
+    (size,) = LENGTH.unpack_from(frame, at)
+    wrong = frame[:at] + LENGTH.pack(size + 1) + frame[at + 4 :]
+    assert one_transfer(wrong) is None
+    with pytest.raises(ProtocolError):
+        parse_request(body(wrong))
+    if extra:
+        assert one_transfer(frame + extra) is None
+
+
+def test_a_write_with_a_lock_argument_goes_the_general_way() -> None:
+    # Its 4-byte argument reads like an empty write's data length: only the
+    # argument's own length tells them apart.
+    frame = Request(1, Op.write, argument=LENGTH.pack(4)).pack()
+    assert one_transfer(frame) is None
+    assert one_transfer(Request(1, Op.write).pack()) is not None
 
 
 def test_unknown_operation_and_status_are_refused() -> None:

@@ -20,8 +20,9 @@ names are left for the layers that receive the same set.
 from __future__ import annotations
 
 import functools
+import operator
 import struct
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 from fw1394.boards.qla1 import rt_blocks as rt
 from fw1394.boards.qla1.channels import MotorChannel
@@ -89,6 +90,8 @@ _register_address = functools.lru_cache(maxsize=4096)(FIREWIRE_DECODING.address)
 TEMPERATURE_READING = 0x3C3C
 #: QTR1, QTR5 and the running counter of every channel: a stalled encoder has no edges.
 _NO_EDGES = (0,) * CHANNELS
+#: What a channel adds to the real-time block's inputs (see Qla1Board._sample_inputs).
+_COMMAND_AND_POSITION = operator.attrgetter("dac_command", "encoder_position")
 
 
 class Qla1Board:
@@ -194,6 +197,13 @@ class Qla1Board:
             self.watchdog.clear_count(self._now)
             self.hub.keep_all(blocks, self._now)
 
+    def keep_hub_round(self, round_blocks: Mapping[int, HubBlock]) -> None:
+        """:meth:`keep_hub_blocks` of the other boards' blocks of a round this board's
+        query has just started, at the query's tick, all at once (see
+        :meth:`HubState.keep_round`). The query restarted the watchdog count at this
+        tick already: the blocks' writes leave it as it is."""
+        self.hub.keep_round(round_blocks, self._now)
+
     # -- AddressSpace -------------------------------------------------------------------
 
     def set_time(self, ticks: int) -> None:
@@ -202,6 +212,11 @@ class Qla1Board:
         self._now = ticks
         if DEFECT_WATCHDOG_DISABLED not in self.defects and self.watchdog.advance(ticks):
             self.control.disable_all_amps()
+
+    def advance_to(self, ticks: int) -> None:
+        """:meth:`set_time` unless ``ticks`` is not after the board's time (then nothing)."""
+        if ticks > self._now:
+            self.set_time(ticks)
 
     def read_quadlet(self, offset: int) -> int:
         _check_offset(offset)
@@ -431,9 +446,6 @@ class Qla1Board:
         if command.reboot:
             self._power_up()
             return
-        self._enforce_watchdog()
-
-    def _enforce_watchdog(self) -> None:
         # While the timeout flag is up, the firmware keeps every amplifier disabled.
         if self.watchdog.timed_out:
             self.control.disable_all_amps()
@@ -446,7 +458,7 @@ class Qla1Board:
         self._rt_reference_tick = self._now
         return (max(elapsed, 1) - 1) & 0xFFFFFFFF
 
-    def _rt_block(self) -> list[int]:
+    def _rt_block(self) -> tuple[int, ...]:
         """The real-time block, sampled now.
 
         Only the timestamp changes from one sample to the next unless one of the
@@ -460,7 +472,7 @@ class Qla1Board:
         last = self._last_sample
         if last is None or last[0] != inputs:
             last = self._last_sample = (inputs, self._sample_tail())
-        return [timestamp, *last[1]]
+        return (timestamp, *last[1])
 
     def _sample_inputs(self) -> tuple[object, ...]:
         """Every value the block after its timestamp is made from."""
@@ -472,8 +484,7 @@ class Qla1Board:
             control.power_enable,
             control.amps_disabled,
             control.digital_outputs,
-            [channel.dac_command for channel in channels],
-            [channel.encoder_position for channel in channels],
+            [*map(_COMMAND_AND_POSITION, channels)],
         )
 
     def _sample_tail(self) -> tuple[int, ...]:
@@ -537,9 +548,10 @@ class Qla1Board:
             self._write_status(value)
 
     def _broadcast_query(self, value: int) -> None:
-        self.hub.query(value, self._now)
-        if self.hub.wants(self.board_id):
-            self.hub.store(self.board_id, self.hub.sequence, self._rt_block(), self._now)
+        hub, now = self.hub, self._now
+        hub.query(value, now)
+        if hub.wants(self.board_id):
+            hub.store(self.board_id, hub.sequence, self._rt_block(), now)
         else:
             self._take_timestamp()
 

@@ -85,8 +85,7 @@ class ClockedBoard:
         self.board = board
 
     def set_time(self, ticks: int) -> None:
-        if ticks > self.board.now:
-            self.board.set_time(ticks)
+        self.board.advance_to(ticks)
 
     def read_quadlet(self, offset: int) -> int:
         return self.board.read_quadlet(offset)

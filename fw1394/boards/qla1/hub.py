@@ -36,8 +36,9 @@ model's choice.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import NamedTuple
 
 from fw1394.boards.qla1.regs import (
     HUB_BOARD_INFO,
@@ -58,9 +59,9 @@ BOARD_NUMBERS = 16
 WIDE_TIMER_FIRMWARE = 9
 
 
-@dataclass(frozen=True)
-class HubBlock:
-    """One board's real-time block as the hub stored it."""
+class HubBlock(NamedTuple):
+    """One board's real-time block as the hub stored it (a tuple: immutable, so hubs can
+    share one, and cheap to make, as every board stores one every cycle)."""
 
     sequence: int
     update_ticks: int
@@ -84,13 +85,31 @@ class HubLayout:
     #: Width of each half of the closing timing quadlet (0: no closing quadlet).
     timing_bits: int
 
-    def header(self, block: HubBlock, current_sequence: int) -> int:
-        update = block.update_ticks & ((1 << self.update_time_bits) - 1)
-        if self.full_sequence:
-            return (block.sequence & 0xFFFF) << 16 | update
-        mismatch = SEQUENCE_MISMATCH if block.sequence != current_sequence else 0
-        size = (len(block.quadlets) + 1) & 0xFF
-        return size << 24 | (block.sequence & 0xFF) << 16 | mismatch | update
+    def words(self, blocks: Iterable[HubBlock], current_sequence: int) -> list[int]:
+        """Each of ``blocks`` as hub memory holds it, in turn: its header, then its data.
+
+        ``current_sequence``: the hub's query sequence (a Rev 8+ header flags a block
+        of another). One loop for every block, not a call per block: the hub lays
+        out the whole round every cycle.
+        """
+        update_mask = (1 << self.update_time_bits) - 1
+        full_sequence, kept = self.full_sequence, self.data_quadlets
+        memory: list[int] = []
+        for sequence, update_ticks, quadlets in blocks:
+            if full_sequence:
+                memory.append((sequence & 0xFFFF) << 16 | update_ticks & update_mask)
+            else:
+                size = (len(quadlets) + 1) & 0xFF
+                mismatch = SEQUENCE_MISMATCH if sequence != current_sequence else 0
+                memory.append(
+                    size << 24 | (sequence & 0xFF) << 16 | mismatch | update_ticks & update_mask
+                )
+            if kept is None:
+                memory += quadlets
+            else:
+                memory += quadlets[:kept]
+                memory += (0,) * (kept - len(quadlets))
+        return memory
 
     def data(self, block: HubBlock) -> tuple[int, ...]:
         if self.data_quadlets is None:
@@ -145,15 +164,21 @@ class HubState:
 
     def store(self, board_id: int, sequence: int, quadlets: Sequence[int], now: int) -> None:
         """Keep ``board_id``'s block; a newer block from the same board replaces it."""
-        self.keep(board_id, HubBlock(sequence, now - self.query_tick, tuple(quadlets)), now)
+        blocks = self.blocks
+        if board_id in blocks:
+            del blocks[board_id]  # a newer block goes last, as a broadcast would
+        blocks[board_id] = HubBlock(sequence, now - self.query_tick, tuple(quadlets))
+        self.last_update_tick = now
 
     def keep(self, board_id: int, block: HubBlock, now: int) -> None:
         """:meth:`store` of a block made already (blocks are frozen: hubs can share one)."""
         update_ticks = now - self.query_tick
         if block.update_ticks != update_ticks:
-            block = replace(block, update_ticks=update_ticks)
-        self.blocks.pop(board_id, None)
-        self.blocks[board_id] = block
+            block = block._replace(update_ticks=update_ticks)
+        blocks = self.blocks
+        if board_id in blocks:
+            del blocks[board_id]  # a newer block goes last, as a broadcast would
+        blocks[board_id] = block
         self.last_update_tick = now
 
     def keep_all(self, blocks: Sequence[tuple[int, HubBlock]], now: int) -> None:
@@ -162,12 +187,25 @@ class HubState:
         stored = self.blocks
         for board_id, block in blocks:
             if block.update_ticks != update_ticks:
-                block = replace(block, update_ticks=update_ticks)
+                block = block._replace(update_ticks=update_ticks)
             if board_id in stored:
                 del stored[board_id]  # a newer block goes last, as a broadcast would
             stored[board_id] = block
         if blocks:
             self.last_update_tick = now
+
+    def keep_round(self, round_blocks: Mapping[int, HubBlock], now: int) -> None:
+        """:meth:`keep_all` of a whole round at once, for a rack that serves every board.
+
+        ``round_blocks``: every board's block of the round, keyed by its reporting
+        board, in the order the broadcasts come; this hub's own block is among them,
+        the same object it stored at the query. Taken at the tick of this hub's query,
+        with every block made at its own board's query tick (both update times 0), and
+        with no key but its own in :attr:`blocks` yet: then keeping the others in turn
+        is one dict update (the own block keeps its place, first).
+        """
+        self.blocks.update(round_blocks)
+        self.last_update_tick = now
 
     def store_broadcast(self, words: Sequence[int], now: int) -> None:
         """A board's broadcast: {sequence 31..16, quadlet count 7..0}, then its block."""
@@ -197,19 +235,13 @@ class HubState:
             memory = [0] * (slot * BOARD_NUMBERS)
             for board_id, block in self.blocks.items():
                 start = slot * board_id
-                memory[start : start + slot] = [
-                    layout.header(block, self.sequence),
-                    *layout.data(block),
-                ]
+                memory[start : start + slot] = layout.words([block], self.sequence)
             return memory[:HUB_MEMORY_QUADLETS]
         # Each board's block has a fixed slot, after those of the lower-numbered
         # boards of the mask (hence 0x1803's lower-board mask): board order, not
         # arrival order, which is also the order the host parses.
-        header, data, sequence = layout.header, layout.data, self.sequence
-        for board_id in sorted(self.blocks):
-            block = self.blocks[board_id]
-            memory.append(header(block, sequence))
-            memory += data(block)
+        blocks = self.blocks
+        memory = layout.words([blocks[board_id] for board_id in sorted(blocks)], self.sequence)
         if self.complete and layout.timing_bits:
             last_update = max(self.last_update_tick - self.query_tick, 0)
             memory.append(layout.timing(last_update, max(now - self.query_tick, 0)))

@@ -71,7 +71,8 @@ class RackFastPath:
         self._bridge = firmware < MULTICAST_FIRMWARE and len(self._ports) == 1
         self._firmware = firmware
         self._members = list(members)
-        self._mask = sum(1 << member.board.board_id for member in members)
+        self._board_ids = [member.board.board_id for member in members]
+        self._mask = sum(1 << board_id for board_id in self._board_ids)
         self._hub = next((n for n, port in enumerate(self._ports) if port.ethernet_hub), 0)
 
     def receive(
@@ -120,12 +121,22 @@ class RackFastPath:
     def _share_blocks(self) -> None:
         """Every board's block of this round, as its query stored it (what its broadcast
         carries), kept by every other board's hub in the order the broadcasts come."""
+        members = self._members
+        if len(members) < 2:
+            return  # nobody to share with
         blocks = []
-        for member in self._members:
-            hub = member.board.hub
-            block = hub.blocks[member.board.board_id]
+        for member in members:
+            board = member.board
+            block = board.hub.blocks[board.board_id]
             blocks.append((reporting_board(block.quadlets), block))
-        for n, member in enumerate(self._members):
+        round_blocks = dict(blocks)
+        if list(round_blocks) == self._board_ids:
+            # Each block says whose it is: every hub holds its own block, then the
+            # others in board-index order, which is what one update of it gives.
+            for member in members:
+                member.board.keep_hub_round(round_blocks)
+            return
+        for n, member in enumerate(members):
             # Earlier boards' broadcasts were kept for this query, later ones arrive after it.
             member.board.keep_hub_blocks(blocks[:n] + blocks[n + 1 :])
 

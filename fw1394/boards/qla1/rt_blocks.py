@@ -123,8 +123,7 @@ def split_rev8_write(words: Sequence[int], start_index: int) -> dict[int, RtWrit
     would meet address 0 again inside a block (a chain reaching round its 8-bit
     address), the walk is left to :func:`_rev8_quadlets`.
     """
-    dacs: dict[int, list[tuple[int, int]]] = {}
-    control: dict[int, list[int]] = {}
+    shares: dict[int, RtWrite] = {}
     total = len(words)
     # Until the translator's address comes round to 0 no block has started.
     position = -start_index & 0xFF
@@ -136,13 +135,16 @@ def split_rev8_write(words: Sequence[int], start_index: int) -> dict[int, RtWrit
         length = header & 0xFF or _ADDRESS_SPAN
         owner = (header >> 8) & 0xF
         last = position + length - 1
-        body = words[position + 1 : min(last, total)]
-        if body:
-            dacs.setdefault(owner, []).extend(zip(_CHANNEL_OF, body, strict=False))
-        if length > 1 and last < total:
-            control.setdefault(owner, []).append(words[last])
+        dacs = tuple(zip(_CHANNEL_OF, words[position + 1 : min(last, total)], strict=False))
+        control: tuple[int, ...] = (words[last],) if length > 1 and last < total else ()
+        if dacs or control:
+            # Mostly one block per board; a board named again gets the later ones after.
+            earlier = shares.get(owner)
+            if earlier is not None:
+                dacs, control = earlier.dac_commands + dacs, earlier.control + control
+            shares[owner] = RtWrite(dacs, control)
         position += length
-    return _shares(dacs, control)
+    return shares
 
 
 def _split_by_quadlet(words: Sequence[int], start_index: int) -> dict[int, RtWrite]:

@@ -47,6 +47,14 @@ class StatusCommand(NamedTuple):
     reboot: bool
 
 
+#: Every StatusCommand there is, made once (a board makes one per STATUS write).
+_COMMANDS = {
+    (asks_for_power, reboot): StatusCommand(asks_for_power, reboot)
+    for asks_for_power in (False, True)
+    for reboot in (False, True)
+}
+
+
 @dataclass
 class BoardControl:
     """Relay, motor power, amplifier disables (firmware's reg_disable) and DOUT."""
@@ -95,7 +103,7 @@ class BoardControl:
             (value & COMMAND_POWER_MASK and value & COMMAND_POWER_VALUE) or masks & wanted
         )
         reboot = bool(value & COMMAND_REBOOT_MASK and value & COMMAND_REBOOT_VALUE)
-        return StatusCommand(asks_for_power, reboot)
+        return _COMMANDS[asks_for_power, reboot]
 
     def request_amp(self, channel: int, enable: bool) -> None:
         """A Rev 8+ DAC command's enable bit, under the same power rule as STATUS."""

@@ -28,17 +28,18 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 from fw1394.capture.formats.record import BusRecord, RecordType
+from fw1394.packets.ack import ack_code
 from fw1394.transport.media.choice import open_medium
 from fw1394.transport.sansio.config import BusConfig
 from fw1394.transport.sansio.seal import DropCounts, Verifier
 from fw1394.transport.sansio.wire import (
+    ACK_PAYLOAD,
     BROADCAST_PHY,
     HEADER_SIZE,
     NO_PHY,
     FrameError,
     FrameHeader,
     FrameKind,
-    parse_ack,
     parse_header,
 )
 from fw1394.transport.supervision.bus_key import key_for
@@ -46,17 +47,36 @@ from fw1394.transport.supervision.bus_key import key_for
 #: How long an asynchronous packet waits for its ack before it is passed on without.
 DEFAULT_ACK_WAIT = 0.05
 #: While the bus is busy, how long the tap sleeps once its queue is drained.
-BATCH_INTERVAL = 0.002
+BATCH_INTERVAL = 0.005
 #: How long after the last frame the bus counts as busy.
 QUIET_AFTER = 0.05
 
 
-@dataclass
+@dataclass(slots=True)
 class _Pending:
-    record: BusRecord
+    """A record held back: its fields, made into a :class:`BusRecord` once, when it leaves."""
+
+    timestamp_ns: int
+    record_type: RecordType
+    data: bytes
+    generation: int
+    sender: int | None
+    speed: int
     #: (generation, sender physical ID, frame sequence) an ack would refer to; None: final.
     key: tuple[int, int, int] | None
     expires: float
+    ack: int | None = None
+
+    def record(self) -> BusRecord:
+        return BusRecord(
+            self.timestamp_ns,
+            self.record_type,
+            self.data,
+            self.generation,
+            self.sender,
+            self.speed,
+            ack=self.ack,
+        )
 
 
 class BusTap:
@@ -81,6 +101,8 @@ class BusTap:
         self._last_stamp_ns = 0
         #: When the tap last took a frame (monotonic seconds).
         self._last_frame = -math.inf
+        #: Until when a packet taken now waits for its ack (set per batch of frames).
+        self._expires = -math.inf
         self._closed = False
 
     @property
@@ -109,6 +131,8 @@ class BusTap:
         """The next record, or None if none is complete within ``timeout`` seconds."""
         clock = time.monotonic
         limit = clock() + timeout
+        receive = self.medium.receive_stamped
+        take = self._take
         while True:
             now = clock()
             ready = self._pop_ready(now)
@@ -117,10 +141,16 @@ class BusTap:
             if now >= limit:
                 return None
             busy = now - self._last_frame < QUIET_AFTER
-            stamped = self.medium.receive_stamped(wait=not busy)
+            stamped = receive(wait=not busy)
             if stamped is not None:
+                # Everything queued behind it comes in the same pass: one clock
+                # reading for the batch, and the acks queued behind their packets
+                # are joined to them before either is passed on.
+                self._expires = clock() + self.ack_wait
+                take(*stamped)
+                while (stamped := receive(wait=False)) is not None:
+                    take(*stamped)
                 self._last_frame = clock()
-                self._take(*stamped)
             elif busy:
                 time.sleep(min(BATCH_INTERVAL, limit - now))
 
@@ -133,7 +163,7 @@ class BusTap:
         self._queue.popleft()
         if head.key is not None:
             self._waiting.pop(head.key, None)
-        return head.record
+        return head.record()
 
     def _take(self, raw: bytes, stamp_ns: int) -> None:
         frame = raw if self._verifier is None else self._verifier.open(raw)
@@ -152,15 +182,15 @@ class BusTap:
         payload = frame[HEADER_SIZE:]
         sender = None if header.sender_phy == NO_PHY else header.sender_phy
         kind = header.kind
+        generation, speed = header.generation, header.speed
         if kind == FrameKind.bus_reset:
-            self._push(_record(header, stamp_ns, sender, RecordType.bus_reset, b""), None)
+            self._push(stamp_ns, RecordType.bus_reset, b"", generation, sender, speed, None)
         elif kind == FrameKind.phy_packet:
-            self._push(_record(header, stamp_ns, sender, RecordType.phy_packet, payload), None)
+            self._push(stamp_ns, RecordType.phy_packet, payload, generation, sender, speed, None)
         elif kind == FrameKind.async_packet:
-            record = _record(header, stamp_ns, sender, RecordType.async_packet, payload)
             acked = header.destination != BROADCAST_PHY and sender is not None
-            key = (header.generation, header.sender_phy, header.sequence) if acked else None
-            self._push(record, key)
+            key = (generation, header.sender_phy, header.sequence) if acked else None
+            self._push(stamp_ns, RecordType.async_packet, payload, generation, sender, speed, key)
         elif kind == FrameKind.ack:
             self._take_ack(header, stamp_ns, sender, payload)
 
@@ -168,41 +198,35 @@ class BusTap:
         self, header: FrameHeader, stamp_ns: int, sender: int | None, payload: bytes
     ) -> None:
         # An ack frame goes to the sender of the packet it acknowledges.
-        generation, acked_sender = header.generation, header.destination
-        try:
-            ack = parse_ack(payload)
-        except FrameError:
-            return
-        pending = self._waiting.pop((generation, acked_sender, ack.acked_sequence), None)
+        generation, acked_sender, speed = header.generation, header.destination, header.speed
+        if len(payload) < ACK_PAYLOAD.size:
+            return  # too short to be an ack (parse_ack's refusal)
+        ack_byte, _, _, acked_sequence = ACK_PAYLOAD.unpack_from(payload)
+        pending = self._waiting.pop((generation, acked_sender, acked_sequence), None)
         if pending is not None:
-            acked = pending.record
-            pending.record = BusRecord(
-                acked.timestamp_ns,
-                acked.record_type,
-                acked.data,
-                acked.generation,
-                acked.sender,
-                acked.speed,
-                ack=ack.code,
-            )
+            pending.ack = ack_code(ack_byte)
             pending.key = None
-        byte = bytes([ack.ack_byte])
-        self._push(_record(header, stamp_ns, sender, RecordType.ack, byte), None)
-        if ack.concatenated and sender is not None:
+        self._push(stamp_ns, RecordType.ack, bytes((ack_byte,)), generation, sender, speed, None)
+        if len(payload) > ACK_PAYLOAD.size and sender is not None:
             # The response that rode in the same tenure; the requester acks it by the
             # sequence number of this ack frame.
-            response = _record(header, stamp_ns, sender, RecordType.async_packet, ack.concatenated)
-            self._push(response, (generation, sender, header.sequence))
+            response = payload[ACK_PAYLOAD.size :]
+            key = (generation, sender, header.sequence)
+            self._push(stamp_ns, RecordType.async_packet, response, generation, sender, speed, key)
 
-    def _push(self, record: BusRecord, key: tuple[int, int, int] | None) -> None:
-        pending = _Pending(record, key, time.monotonic() + self.ack_wait)
+    def _push(
+        self,
+        stamp_ns: int,
+        record_type: RecordType,
+        data: bytes,
+        generation: int,
+        sender: int | None,
+        speed: int,
+        key: tuple[int, int, int] | None,
+    ) -> None:
+        pending = _Pending(
+            stamp_ns, record_type, data, generation, sender, speed, key, self._expires
+        )
         self._queue.append(pending)
         if key is not None:
             self._waiting[key] = pending
-
-
-def _record(
-    header: FrameHeader, stamp_ns: int, sender: int | None, kind: RecordType, data: bytes
-) -> BusRecord:
-    """What a tap knows of a frame; every other field keeps its default."""
-    return BusRecord(stamp_ns, kind, data, header.generation, sender, header.speed)

@@ -82,15 +82,20 @@ class Express(Generic[Owner]):
     """The express path of an adapter's host; see the module docstring."""
 
     def __init__(
-        self, host: BusHost, link: HostLink, adopted: Callable[[int, Owner], None]
+        self,
+        host: BusHost,
+        link: HostLink,
+        adopted: Callable[[int, Owner], None],
+        answered: Callable[[Owner, bytes], None],
     ) -> None:
         self.host, self.link = host, link
         self.station, self.requester = host.station, host.requester
         #: Told of each flight handed to the requester: its transaction id, its owner.
         self.adopted = adopted
+        #: Told of each flight that ended the common way, at once: its owner and its
+        #: data (b"" for a write), before the ack of its response is sent.
+        self.answered = answered
         self.flight: Flight[Owner] | None = None
-        #: Flights that ended the common way, not yet told: (owner, data; b"" for a write).
-        self.ended: list[tuple[Owner, bytes]] = []
         # Frames of a host with fault injection may leave late or twice.
         self.open = host.station.faults is None
 
@@ -187,10 +192,10 @@ class Express(Generic[Owner]):
                     return True
                 self.requester.finish(now)
                 self.flight = None
+                self.answered(flight.owner, data)
                 if response_class is not WriteResponse:  # the link acks the response
                     ack = _pack_ack(_COMPLETE, flight.label, 0, header.sequence)
                     link.send(ACK, flight.phy, ack)
-                self.ended.append((flight.owner, data))
                 return True
         self.adopt()
         return False

@@ -210,6 +210,22 @@ class Reply:
         return LENGTH.pack(len(body)) + body
 
 
+#: An ``ok`` reply with data only (a read's or a write's end), whole: the length
+#: prefix, :data:`REPLY`'s head, the empty reason and detail, the data's length.
+_OK_REPLY = struct.Struct(">I" + _REPLY_HEAD.format[1:] + "HI")
+_OK_BODY = _OK_REPLY.size - LENGTH.size
+
+
+def ok_reply(request: int, generation: int, phy: int, data: bytes) -> bytes:
+    """The frame of ``Reply(request, Status.ok, data=data).pack(generation, phy)`` in
+    one step, as the adapter sends it for every read or write that ends well."""
+    size = len(data)
+    head = _OK_REPLY.pack(
+        _OK_BODY + size, request, Status.ok, generation & 0xFFFFFFFF, phy, NONE, NONE, 0, 0, 0, size
+    )
+    return head + data if size else head
+
+
 class ProtocolError(PacketError):
     """Bytes that are not a message of this protocol."""
 
@@ -247,6 +263,35 @@ def parse_request(body: bytes) -> Request:
         data,
         generation,
     )
+
+
+#: A whole request frame's length prefix and :data:`REQUEST`'s head, as one struct.
+_REQUEST_FRAME = struct.Struct(">I" + _REQUEST_HEAD.format[1:])
+_FRAME_DATA_AT = _REQUEST_FRAME.size + _U32.size
+#: A read's or a write's fields, as :func:`transfer` finds them: request number,
+#: op, node, generation, offset, length, quadlet, data.
+Transfer = tuple[int, int, int, int, int, int, int, bytes]
+
+
+def one_transfer(frame: bytes) -> Transfer | None:
+    """The fields of ``frame`` if it is exactly one whole read or write request
+    (length prefix included) with no lock argument; None for anything else, which
+    the general way (:class:`FrameBuffer`, :func:`parse_request`) takes instead.
+
+    Every blocking read and write a program makes comes alone in one receive, so
+    the adapter reads them without building a :class:`Request`.
+    """
+    if len(frame) < _FRAME_DATA_AT:
+        return None
+    (size, number, op, node, _, generation, offset, length, quadlet, _, argument) = (
+        _REQUEST_FRAME.unpack_from(frame)
+    )
+    if (op != Op.read and op != Op.write) or argument or size != len(frame) - LENGTH.size:
+        return None
+    (data_size,) = _U32.unpack_from(frame, _REQUEST_FRAME.size)
+    if _FRAME_DATA_AT + data_size != len(frame):
+        return None
+    return number, op, node, generation, offset, length, quadlet, frame[_FRAME_DATA_AT:]
 
 
 def hello(request: int, lowest: int = VERSION, highest: int = VERSION) -> Request:
@@ -293,6 +338,11 @@ class FrameBuffer:
 
     def __init__(self) -> None:
         self._buffer = bytearray()
+
+    @property
+    def empty(self) -> bool:
+        """Whether no part of a message waits for the rest."""
+        return not self._buffer
 
     def feed(self, data: bytes) -> list[bytes]:
         buffer = self._buffer

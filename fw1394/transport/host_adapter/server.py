@@ -57,7 +57,10 @@ from fw1394.transport.host_adapter.protocol import (
     Reply,
     Request,
     Status,
+    Transfer,
     choose_version,
+    ok_reply,
+    one_transfer,
     parse_request,
 )
 from fw1394.transport.host_adapter.services import NodeServices, is_request
@@ -196,8 +199,13 @@ class AdapterHost(BusHost):
         self._flush_requests = self.link.flush
         #: Told of each express flight handed to the engine: its transaction id, its owner.
         self.on_adopt: Callable[[int, Asked], None] = lambda tid, owner: None
+        #: Told of each express flight that ended well: its owner, its data.
+        self.on_answer: Callable[[Asked, bytes], None] = lambda owner, data: None
         self.express: Express[Asked] = Express(
-            self, link, lambda tid, owner: self.on_adopt(tid, owner)
+            self,
+            link,
+            lambda tid, owner: self.on_adopt(tid, owner),
+            lambda owner, data: self.on_answer(owner, data),
         )
 
     @property
@@ -205,15 +213,18 @@ class AdapterHost(BusHost):
         return self.station.medium.sock
 
     def next_wake(self) -> float:
-        due = min(self.link.due, self.station.wake_by)
+        due, other = self.link.due, self.station.wake_by
+        if other < due:
+            due = other
         deadline = self.requester.next_deadline()
         if deadline is not None:
             # The engine's timers are looked at once a millisecond (keep_timers).
             due = min(due, max(deadline, self._timers_due))
-        for pending in self.raw.values():
-            due = min(due, pending.deadline)
-        if self.express.flight is not None:
-            due = min(due, self.express.flight.deadline)
+        if self.raw:
+            due = min(due, *(pending.deadline for pending in self.raw.values()))
+        flight = self.express.flight
+        if flight is not None and flight.deadline < due:
+            due = flight.deadline
         return due
 
     def take_frames(self, now: float) -> bool:
@@ -225,6 +236,10 @@ class AdapterHost(BusHost):
             taken = True
             if express.flight is None or not express.take(header, payload, now):
                 link.receive(header, payload, now)
+            elif express.flight is None:
+                # The flight's answer, its reply sent: frames behind it wait for the
+                # next turn (the socket stays readable), not a receive that finds none.
+                break
         flight = express.flight
         if flight is not None and flight.generation != station.generation:
             express.adopt()  # the engine fails it with the reset, as its own
@@ -253,6 +268,29 @@ class AdapterHost(BusHost):
     def finished(self, tid: int) -> object | None:
         return self._finished.pop(tid, None)
 
+    def start_express(
+        self,
+        owner: Asked,
+        generation: int,
+        write: bool,
+        quadlet: bool,
+        node: int,
+        offset: int,
+        length: int,
+        data: bytes,
+    ) -> bool:
+        """:meth:`Express.start` pinned to bus ``generation`` (:meth:`addressed_in`
+        without its context manager, which costs more than the rest); False when the
+        express path does not take it, also when ``generation`` has ended (nothing was
+        sent: the general path answers it)."""
+        outer, self._addressed_in = self._addressed_in, generation
+        try:
+            return self.express.start(owner, write, quadlet, node, offset, length, data)
+        except StaleGenerationError:
+            return False
+        finally:
+            self._addressed_in = outer
+
     def send_raw(self, destination: int, packet: bytes) -> int:
         """Put ``packet`` on the bus to physical ID ``destination``; its frame's sequence."""
         self.on_bus()
@@ -274,6 +312,7 @@ class Adapter:
         self.services = NodeServices(self)
         host.adapter_link.on_request = self.services.from_bus
         host.on_adopt = self._adopted
+        host.on_answer = self._answered
         self._poller = select.epoll()
         self._poller.register(self.listener, select.EPOLLIN)
         self._by_fd: dict[int, Client] = {}
@@ -297,30 +336,36 @@ class Adapter:
 
     def run(self) -> None:
         host = self.host
+        medium, link, services = host.station.medium, host.adapter_link, self.services
         poller = self._poller
         listener = self.listener.fileno()
-        by_fd = self._by_fd
-        bus = host.bus_socket
+        waiting = self._by_fd.get
+        bus = medium.sock
+        bus_fd = bus.fileno()
         poller.register(bus, select.EPOLLIN)
         while not self.stopping:
-            if host.bus_socket is not bus:  # a medium that moved to a new socket
+            if medium.sock is not bus:  # a medium that moved to a new socket
                 with contextlib.suppress(OSError):
                     poller.unregister(bus)
-                bus = host.bus_socket
+                bus = medium.sock
+                bus_fd = bus.fileno()
                 poller.register(bus, select.EPOLLIN)
             events = self._wait()
             now = _clock()
             # The bus first: a reset it reports decides which requests read below are stale.
-            bus_fd = bus.fileno()
-            if (not events or any(fd == bus_fd for fd, _ in events)) and host.take_frames(now):
+            bus_readable = not events
+            for fd, _ in events:
+                if fd == bus_fd:
+                    bus_readable = True
+                    break
+            if bus_readable and host.take_frames(now):
                 self._traffic = now
-            self.services.after_serve()
-            if host._finished or host.raw or host.express.ended:
+            services.after_serve()
+            if host._finished or host.raw:
                 self._answer_finished()
             # The programs have their replies; now the acks of the responses they ended.
-            if host.adapter_link.acks:
-                host.adapter_link.send_acks()
-            waiting = by_fd.get
+            if link.acks:
+                link.send_acks()
             for fd, _ in events:
                 client = waiting(fd)
                 if client is not None:
@@ -328,9 +373,9 @@ class Adapter:
                     self._traffic = now
                 elif fd == listener:
                     self._accept()
-            if host._finished or host.raw or host.express.ended or host.adapter_link.acks:
+            if host._finished or host.raw or link.acks:
                 self._answer_finished()
-                host.adapter_link.send_acks()
+                link.send_acks()
             host.keep_timers(now)
 
     def _wait(self) -> list[tuple[int, int]]:
@@ -399,6 +444,10 @@ class Adapter:
         if not data:
             self._drop(client)
             return
+        if client.frames.empty and client.version is not None:
+            transfer = one_transfer(data)
+            if transfer is not None and self._express(client, transfer):
+                return
         try:
             bodies = client.frames.feed(data)
             for body in bodies:
@@ -416,10 +465,37 @@ class Adapter:
             self._reply(client, Reply(0, Status.refused, detail=str(error)))
             self._drop(client)
 
+    def _express(self, client: Client, transfer: Transfer) -> bool:
+        """Start the read or write ``transfer`` on the express path; False: nothing
+        was done, the general way (:meth:`_handle`) is to take it."""
+        number, op, node, generation, offset, length, quadlet, data = transfer
+        host = self.host
+        if host.express.flight is not None or node == host.station.membership.phy_id:
+            return False  # the engine's, or the adapter's own node's (services)
+        owner = (client, number)
+        try:
+            return host.start_express(
+                owner, generation, op == Op.write, bool(quadlet), node, offset, length, data
+            )
+        except Exception as error:  # one client's request never ends the bus's adapter
+            detail = f"adapter error: {type(error).__name__}: {error}"
+            self._reply(client, Reply(number, Status.refused, detail=detail))
+            return True
+
+    def _answered(self, owner: Asked, data: bytes) -> None:
+        """Reply to the owner of an express flight that ended well."""
+        membership = self.host.station.membership
+        phy = membership.phy_id
+        client, number = owner
+        phy = NO_PHY if phy is None else phy
+        self._deliver(client, ok_reply(number, membership.generation, phy, data))
+
     def _reply(self, client: Client, reply: Reply) -> None:
         host = self.host
         phy = host.phy_id
-        message = reply.pack(host.generation, NO_PHY if phy is None else phy)
+        self._deliver(client, reply.pack(host.generation, NO_PHY if phy is None else phy))
+
+    def _deliver(self, client: Client, message: bytes) -> None:
         sock = client.sock
         try:
             sent = sock.send(message)
@@ -541,12 +617,6 @@ class Adapter:
 
     def _answer_finished(self) -> None:
         host = self.host
-        express = host.express
-        if express.ended:
-            ended, express.ended = express.ended, []
-            for owner, data in ended:
-                client, number = owner
-                self._reply(client, Reply(number, Status.ok, data=data))
         for tid in [t for t in self.orphans if t in host._finished]:
             host.finished(tid)
             self.orphans.discard(tid)

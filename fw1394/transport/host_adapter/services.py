@@ -220,12 +220,13 @@ class NodeServices:
         """Tell the watchers of a bus reset the adapter has taken in."""
         host = self.adapter.host
         membership = host.station.membership
-        phy = host.phy_id
-        if phy is None or not membership.ready or self._seen == (host.generation, phy):
+        # Plain attributes first: this runs on every turn of the adapter's loop.
+        phy, generation = membership.phy_id, membership.generation
+        if phy is None or (generation, phy) == self._seen or not membership.ready:
             return
-        self._seen = (host.generation, phy)
+        self._seen = (generation, phy)
         ids = membership.self_ids
-        self.node.bus_reset(phy, host.generation, [ids[p] for p in sorted(ids)])
+        self.node.bus_reset(phy, generation, [ids[p] for p in sorted(ids)])
         state = self.node.bus_state()
         for client, number in list(self.watchers.items()):
             self.adapter._reply(client, Reply(number, Status.ok, data=state))

@@ -28,6 +28,14 @@ Strategies (``docs/performance.md`` gives their CPU cost):
   each burst. Only data frames count as traffic: a heartbeat or a beacon
   expects no answer, so it starts no polling.
 
+  **More members than cores.** A bus with more members on this host than the
+  machine has CPUs (``fw1394 demo``: a host, two nodes and the host adapter on
+  two vCPUs) is *crowded* (:meth:`Waiter.share_host`, which the station calls
+  at every bus reset): there an adaptive member never polls, because whenever
+  two of them poll at once every other member that is woken waits for a core,
+  and the load average, looked at every 5 ms, cannot see wake-ups that last
+  tens of microseconds. Every frame is then a wake-up, as under ``block``.
+
 A member that knows when its timers are next due (:attr:`Waiter.deadline`,
 which a node sets) blocks until then when nothing comes, up to
 :data:`LONGEST_SLEEP`, instead of waking every poll interval: an idle bus of
@@ -133,6 +141,7 @@ class Waiter:
         "_recv",
         "_timeout",
         "_yield",
+        "crowded",
         "deadline",
         "sock",
         "strategy",
@@ -160,6 +169,8 @@ class Waiter:
         #: Whether every runnable task had a core when last looked (at ``_checked``).
         self._enough = True
         self._checked = -math.inf
+        #: More members of this bus on this host than CPUs: never poll (see the module).
+        self.crowded = False
         self._kind_at, self._quiet_from = quiet_kinds or (0, 256)
         #: When the owner's timers are next due (monotonic); None: wake every poll interval.
         self.deadline: Callable[[], float] | None = None
@@ -167,6 +178,10 @@ class Waiter:
 
     def traffic(self) -> None:
         self._last = time.monotonic()
+
+    def share_host(self, members: int) -> None:
+        """This bus has ``members`` members on this host (this one included)."""
+        self.crowded = crowded(members, self._cpus)
 
     def receive(self, size: int) -> bytes | None:
         """The next datagram (at most ``size`` bytes), or None when the wait ran out."""
@@ -178,7 +193,9 @@ class Waiter:
                 until = now + self._poll
             else:
                 until = self._last + window
-                if now < until and now - self._checked >= CHECK_EVERY:
+                if self.crowded:
+                    until = now
+                elif now < until and now - self._checked >= CHECK_EVERY:
                     self._checked = now
                     self._enough = cores_enough(self._cpus)
                 if not self._enough:
@@ -227,6 +244,12 @@ def set_receive_timeout(sock: socket.socket, seconds: float) -> None:
     micros = max(1, int(seconds * 1e6))
     timeval = struct.pack("@ll", micros // 1_000_000, micros % 1_000_000)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVTIMEO, timeval)
+
+
+def crowded(members: int, cpus: int) -> bool:
+    """Whether ``members`` processes of one bus on a machine of ``cpus`` CPUs must
+    share cores, so that an adaptive member should not poll."""
+    return members > cpus
 
 
 def cores_enough(cpus: int) -> bool:

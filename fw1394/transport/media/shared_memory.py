@@ -103,6 +103,7 @@ from fw1394.transport.media.idle import (
     LONGEST_SLEEP,
     IdleStrategy,
     cores_enough,
+    crowded,
     set_receive_timeout,
 )
 from fw1394.transport.sansio.config import BusConfig
@@ -317,6 +318,7 @@ class SharedMedium:
         self._checked = -math.inf
         self._enough = True
         self._cpus = os.cpu_count() or 1
+        self._crowded = False
         self._selected = False
         self._yield: Callable[[], None] = getattr(os, "sched_yield", lambda: None)
 
@@ -828,11 +830,14 @@ class SharedMedium:
         if window:
             now = clock()
             until = min(limit, self._last + window)
-            if now < until and window != math.inf and now - self._checked >= CHECK_EVERY:
-                self._checked = now
-                self._enough = cores_enough(self._cpus)
-            if not self._enough and window != math.inf:
-                until = now
+            if window != math.inf:
+                if self._crowded:
+                    until = now
+                elif now < until and now - self._checked >= CHECK_EVERY:
+                    self._checked = now
+                    self._enough = cores_enough(self._cpus)
+                if not self._enough:
+                    until = now
             pause, take = self._yield, self._next
             while now < until:
                 frame = take()
@@ -901,6 +906,11 @@ class SharedMedium:
         if frame is None and wait:
             frame = self._wait(self._limit())
         return None if frame is None else (frame, self._stamp)
+
+    def share_host(self, members: int) -> None:
+        """This bus has ``members`` members on this host: more than CPUs and an
+        adaptive member never polls (:mod:`fw1394.transport.media.idle`)."""
+        self._crowded = crowded(members, self._cpus)
 
     def sleep_until(self, deadline: Callable[[], float]) -> None:
         """Block, when nothing comes, until ``deadline()`` (monotonic) rather than

@@ -102,6 +102,11 @@ class Medium:
         for one poll interval (:attr:`fw1394.transport.media.idle.Waiter.deadline`)."""
         self._waiter.deadline = deadline
 
+    def share_host(self, members: int) -> None:
+        """This bus has ``members`` members on this host (:meth:`Waiter.share_host
+        <fw1394.transport.media.idle.Waiter.share_host>`)."""
+        self._waiter.share_host(members)
+
     def _listen_on(self, groups: set[str]) -> None:
         # Joins first: a frame to the new address may be on its way already.
         interface = socket.inet_aton(self.config.interface)
