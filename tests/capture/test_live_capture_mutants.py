@@ -986,8 +986,12 @@ def signals() -> Iterator[None]:
 
 
 def test_the_recorder_process_entry_checks_its_arguments(
-    capsys: pytest.CaptureFixture[str],
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    def record_bus(*args: object, **kwargs: object) -> int:
+        raise AssertionError("a recording started")
+
+    monkeypatch.setattr(bus_recorder, "record_bus", record_bus)
     assert bus_recorder.main(["tapped"]) == 2
     assert bus_recorder.main(["tapped", "a", "b"]) == 2
     assert (
