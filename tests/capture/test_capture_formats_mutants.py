@@ -332,3 +332,64 @@ def test_frames_too_short_for_their_headers_are_other_traffic_and_unknown_links_
     assert udp.udp_payload(1, ethernet + b"\x45\x00\x00\x1c\x00") is None  # IPv4 cut short
     assert udp.udp_payload(1, ethernet + b"\x45" + bytes(18)) is None  # one byte short
     assert udp.udp_payload(999, bytes(40)) == "unsupported link type 999"
+
+
+def test_records_keep_the_positions_they_are_given() -> None:
+    records = [BusRecord(n, RecordType.bus_reset, b"", n) for n in range(3)]
+    batch = batches.from_records(records, [1, 2, 3], [100, 228, 356])
+    assert [int(p) for p in batch.position] == [100, 228, 356]
+    assert [int(f) for f in batch.frame] == [1, 2, 3]
+
+
+def test_only_ip_ethertypes_carry_datagrams() -> None:
+    # An ARP frame (0x0806) whose bytes would read as an IPv6 UDP datagram to port 1394.
+    ipv6_like = bytearray(48)
+    ipv6_like[6] = 17  # "next header: UDP"
+    ipv6_like[40:44] = struct.pack(">HH", 40000, 1394)
+    assert udp.udp_payload(1, bytes(12) + b"\x08\x06" + bytes(ipv6_like)) is None
+    assert udp.udp_payload(1, bytes(12) + b"\x86\xdd" + bytes(ipv6_like)) is not None
+
+
+def test_interface_options_without_an_end_marker_are_read_to_the_trailer() -> None:
+    # if_tsresol (9) = 9, nanoseconds, as the last option, with no opt_endofopt after it.
+    idb = pcapng_block(1, struct.pack("<HHI", 147, 0, 0) + struct.pack("<HHB3x", 9, 1, 9))
+    content = section() + idb + enhanced(0, 1_700_000_000_123_456_789, b"\x01" * 4)
+    (chunk,) = containers.read_chunks(io.BytesIO(content), chunk_size=1 << 20)
+    assert int(chunk.ts_ns[0]) == 1_700_000_000_123_456_789
+
+
+def test_a_pcap_file_of_its_header_alone_is_detected_by_its_link_type() -> None:
+    header = struct.pack("<IHHiIII", 0xA1B2C3D4, 2, 4, 0, 0, 65535, 147)
+    assert sources.detect_head(header, "empty.pcap") == "fw1394"
+
+
+def test_a_nosy_dump_packet_of_whole_quadlets_reads_without_issues(tmp_path: Path) -> None:
+    words = [0xFFC00140, 0xFFC1FFFF, 0xF0000400, 0x12345678]
+    path = tmp_path / "read.nosy"
+    path.write_bytes(struct.pack("<i6I", 24, 10, *words, 0x1232))
+    (batch,) = [job() for job in sources.jobs(str(path), "nosy")]
+    assert len(batch) == 1 and batch.issues == []
+
+
+def test_a_self_id_sequence_alone_gives_self_ids_and_no_bus_reset() -> None:
+    # tests/data/firewire-tracepoints.txt, line 15, in a generation no bus reset listed.
+    line = (
+        "kworker/1:2-97 [001] ..... 2107.431052: self_id_sequence: card_index=0 generation=3"
+        " phy_id=0x00 link_active=true gap_count=63 scode=2 contender=false power_class=4"
+        " initiated_reset=false port_status={0x2,0x1,0x1} self_id_sequence={0x807f8494}\n"
+    )
+    (batch,) = list(kernel.read_batches(io.StringIO(line)))
+    assert batch.issues == []
+    assert [batch.record(i).record_type for i in range(len(batch))] == [RecordType.phy_packet]
+    assert batch.record(0).data[:4] == bytes.fromhex("807f8494")
+
+
+def test_a_file_cut_inside_a_block_says_how_many_bytes_are_left() -> None:
+    content = section() + interface(147) + enhanced(0, 1, b"\x01" * 4)[:20]
+    packets, _ = read(content, 1 << 20)
+    issues = [
+        (issue.position, issue.message)
+        for chunk in containers.read_chunks(io.BytesIO(content), chunk_size=1 << 20)
+        for issue in chunk.issues
+    ]
+    assert packets == [] and issues == [(len(content) - 20, "truncated block (20 bytes)")]
