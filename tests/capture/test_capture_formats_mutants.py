@@ -393,3 +393,17 @@ def test_a_file_cut_inside_a_block_says_how_many_bytes_are_left() -> None:
         for issue in chunk.issues
     ]
     assert packets == [] and issues == [(len(content) - 20, "truncated block (20 bytes)")]
+
+
+@pytest.mark.parametrize("chunk_size", range(40, 144, 4))
+def test_blocks_after_a_bad_one_are_read_whatever_the_chunks(chunk_size: int) -> None:
+    # A skip past damage stops at a packet block that the next chunk completes, rather
+    # than at the chunk's end.
+    head = section() + interface(147)
+    bad = struct.pack("<II", 0x99, 14) + bytes(8)
+    content = head + bad + b"".join(enhanced(0, n, bytes([n]) * 4) for n in (1, 2, 3))
+    packets, issues = read(content, chunk_size)
+    start = len(head) + len(bad)
+    assert sorted(packets) == [(start + 36 * (n - 1), 147, bytes([n]) * 4) for n in (1, 2, 3)]
+    # The damage is reported where it starts (and again where a chunk resumes inside it).
+    assert issues[0] == len(head) and all(len(head) <= at < start for at in issues)
