@@ -85,3 +85,27 @@ def test_the_snake2010_spots_hit_only_holes_of_its_map() -> None:
     # fuzzer hits besides the registers) are such holes and the decoder's edges.
     assert all(SNAKE2010_MAP.at(spot) is None for spot in SNAKE2010_MAP.spots)
     assert {5, 6, 7} <= set(SNAKE2010_MAP.spots)
+
+
+def test_the_safety_relay_reads_back_on_with_its_feedback() -> None:
+    # §4 STATUS: a write's bit 17 is the relay's mask and bit 16 its value; a read has
+    # bit 16 relay on and bit 17 the relay's feedback.
+    board = Qla1Board(board_id=0, physical_id=0)
+    board.write_quadlet(0, 1 << 17 | 1 << 16)
+    assert board.read_quadlet(0) >> 16 & 0b11 == 0b11
+    board.write_quadlet(0, 1 << 17)
+    assert board.read_quadlet(0) >> 16 & 0b11 == 0
+
+
+def test_motor_config_reads_back_its_limit_and_enable_delay() -> None:
+    # §4 MOTOR_CONFIG (channel register 11): current limit 15:0, amp-enable delay 23:16,
+    # bit 24 current control available; a write sets the fields its bits 24/25 name.
+    board = Qla1Board(board_id=0, physical_id=0, firmware=8)
+    board.write_quadlet(0x1B, 1 << 25 | 1 << 24 | 0x5A << 16 | 0x1234)
+    assert board.read_quadlet(0x1B) == 1 << 24 | 0x5A << 16 | 0x1234
+
+
+def test_every_quadlet_of_the_qla_prom_buffer_window_answers() -> None:
+    # A board answers every read; the window at 0x3100 is larger than the buffer.
+    board = Qla1Board(board_id=0, physical_id=0)
+    assert all(isinstance(board.read_quadlet(0x3100 + n), int) for n in range(0x100))
