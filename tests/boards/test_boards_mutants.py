@@ -109,3 +109,12 @@ def test_every_quadlet_of_the_qla_prom_buffer_window_answers() -> None:
     # A board answers every read; the window at 0x3100 is larger than the buffer.
     board = Qla1Board(board_id=0, physical_id=0)
     assert all(isinstance(board.read_quadlet(0x3100 + n), int) for n in range(0x100))
+
+
+def test_a_dac_command_with_bit_24_puts_its_channel_in_voltage_mode() -> None:
+    # §4 DAC (channel register 1): bit 31 valid, bit 24 voltage mode (QLA 1.5+).
+    board = Qla1Board(board_id=0, physical_id=0)
+    board.write_quadlet(0x11, 1 << 31 | 1 << 24 | 0x8000)
+    assert board.channels[0].voltage_mode
+    board.write_quadlet(0x11, 1 << 31 | 1 << 25 | 0x8000)
+    assert not board.channels[0].voltage_mode
