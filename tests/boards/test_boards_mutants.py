@@ -14,10 +14,12 @@ from fw1394.boards.qla1.board import Qla1Board
 from fw1394.boards.qla1.ethernet import EthernetPort, Reply
 from fw1394.boards.qla1.firewire import ClockedBoard
 from fw1394.boards.qla1.hub import HubBlock, HubState
+from fw1394.boards.qla1.paths import ETHERNET_PATH, FIREWIRE_PATH
 from fw1394.boards.qla1.prom import ConfigProm
 from fw1394.boards.qla1.status import BoardControl
 from fw1394.boards.snake2010.regmap import REGISTER_MAP as SNAKE2010_MAP
 from fw1394.engine import JHU_FIRMWARE, Responder
+from fw1394.packets import QuadletReadRequest
 from fw1394.packets.nodeid import node_id
 
 WRITE_ENABLE = 0x06
@@ -118,3 +120,25 @@ def test_a_dac_command_with_bit_24_puts_its_channel_in_voltage_mode() -> None:
     assert board.channels[0].voltage_mode
     board.write_quadlet(0x11, 1 << 31 | 1 << 25 | 0x8000)
     assert not board.channels[0].voltage_mode
+
+
+def test_a_status_write_reboots_only_with_its_mask() -> None:
+    # §4 STATUS: bit 21 is the reboot mask, bit 20 its value (Rev 7+).
+    assert BoardControl().command(1 << 21 | 1 << 20).reboot
+    assert not BoardControl().command(1 << 20).reboot
+    assert not BoardControl().command(1 << 21).reboot
+
+
+def test_an_amplifier_is_on_only_on_its_own_axis() -> None:
+    control = BoardControl(power_enable=True)
+    control.request_amp(3, True)
+    assert [control.amp_on(axis) for axis in (1, 2, 3, 4)] == [False, False, True, False]
+
+
+def test_the_firewire_link_ignores_the_bus_id_and_the_ethernet_path_does_not() -> None:
+    # §3.1: the FireWire link matches only the node bits 21:16; §3.2: over Ethernet the
+    # destination bus must be 0x3FF.
+    other_bus = QuadletReadRequest(destination_id=0x3FE << 6, tlabel=1, source_id=0xFFD0, offset=4)
+    local_bus = QuadletReadRequest(destination_id=0xFFC0, tlabel=1, source_id=0xFFD0, offset=4)
+    assert FIREWIRE_PATH.takes(other_bus, 0) and FIREWIRE_PATH.takes(local_bus, 0)
+    assert not ETHERNET_PATH.takes(other_bus, 0) and ETHERNET_PATH.takes(local_bus, 0)
