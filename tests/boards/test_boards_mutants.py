@@ -142,3 +142,17 @@ def test_the_firewire_link_ignores_the_bus_id_and_the_ethernet_path_does_not() -
     local_bus = QuadletReadRequest(destination_id=0xFFC0, tlabel=1, source_id=0xFFD0, offset=4)
     assert FIREWIRE_PATH.takes(other_bus, 0) and FIREWIRE_PATH.takes(local_bus, 0)
     assert not ETHERNET_PATH.takes(other_bus, 0) and ETHERNET_PATH.takes(local_bus, 0)
+
+
+def test_the_configuration_rom_says_which_fpgas_have_ethernet() -> None:
+    # §4 CSR/ROM: the GUID's low nibble is 0xE for an Ethernet build (FPGA V2 and V3),
+    # 0xF otherwise (V1).
+    rom_guid_high = 0xFFFF_F000_040C
+    nibbles = {
+        version: Qla1Board(board_id=2, physical_id=0, fpga_version=version).read_quadlet(
+            rom_guid_high
+        )
+        & 0xF
+        for version in (1, 2, 3)
+    }
+    assert nibbles == {1: 0xF, 2: 0xE, 3: 0xE}
