@@ -156,3 +156,31 @@ def test_the_configuration_rom_says_which_fpgas_have_ethernet() -> None:
         for version in (1, 2, 3)
     }
     assert nibbles == {1: 0xF, 2: 0xE, 3: 0xE}
+
+
+def test_power_reads_back_enabled_with_motor_voltage_good() -> None:
+    # §4 STATUS: a write's bit 19 is the power mask and bit 18 its value; a read has
+    # bit 19 motor voltage good and bit 18 power enable.
+    board = Qla1Board(board_id=0, physical_id=0)
+    board.write_quadlet(0, 1 << 19 | 1 << 18)
+    assert board.read_quadlet(0) >> 18 & 0b11 == 0b11
+    board.write_quadlet(0, 1 << 19)
+    assert board.read_quadlet(0) >> 18 & 0b11 == 0
+
+
+def test_a_dac_command_enables_its_amplifier_rev_8() -> None:
+    # §4 DAC: bit 31 valid, bit 29 enable mask, bit 28 enable (Rev 8+); STATUS bits 3:0
+    # are the amplifiers enabled, bit n-1 for axis n.
+    board = Qla1Board(board_id=0, physical_id=0, firmware=8)
+    board.write_quadlet(0, 1 << 19 | 1 << 18)  # power on
+    board.write_quadlet(0x21, 1 << 31 | 1 << 29 | 1 << 28 | 0x8000)
+    assert board.read_quadlet(0) & 0xF == 0b0010
+    board.write_quadlet(0x21, 1 << 31 | 1 << 29 | 0x8000)
+    assert board.read_quadlet(0) & 0xF == 0
+
+
+def test_every_quadlet_of_the_qla_prom_buffer_window_takes_a_write() -> None:
+    board = Qla1Board(board_id=0, physical_id=0)
+    for n in range(0x100):
+        board.write_quadlet(0x3100 + n, 0x51000000 + n)
+    assert board.read_quadlet(0x3100 + 3) == 0x51000003
