@@ -22,6 +22,7 @@ from fw1394.capture.formats import eth1394_udp as udp
 from fw1394.capture.formats.chunks import read_into
 from fw1394.capture.formats.pseudo_header import decode as decode_pseudo_header
 from fw1394.capture.formats.record import BusRecord, RecordType
+from fw1394.capture.formats.trace_writer import record_bytes
 
 
 def pcapng_block(block_type: int, body: bytes) -> bytes:
@@ -407,3 +408,38 @@ def test_blocks_after_a_bad_one_are_read_whatever_the_chunks(chunk_size: int) ->
     assert sorted(packets) == [(start + 36 * (n - 1), 147, bytes([n]) * 4) for n in (1, 2, 3)]
     # The damage is reported where it starts (and again where a chunk resumes inside it).
     assert issues[0] == len(head) and all(len(head) <= at < start for at in issues)
+
+
+def test_a_header_crc_below_the_right_one_is_no_more_sound_than_one_above() -> None:
+    # docs/capture-format.md's example request with its header CRC (0x11ab9b77) replaced.
+    request = bytes.fromhex("ffc00c40ffc1fffff0000400")
+    for crc in (0, 0x11AB9B76, 0x11AB9B78, 0xFFFFFFFF):
+        record = BusRecord(1, RecordType.async_packet, request + struct.pack(">I", crc), 5, 1)
+        assert not struct.unpack_from(">H", record_bytes(record), 4)[0] & 0x2  # crc_valid
+    sound = BusRecord(1, RecordType.async_packet, request + bytes.fromhex("11ab9b77"), 5, 1)
+    assert struct.unpack_from(">H", record_bytes(sound), 4)[0] & 0x2
+
+
+def test_pcap_resynchronises_one_byte_after_a_stray_byte() -> None:
+    # Read one byte early, the 300-byte record's header claims 300 * 256 + 0 bytes
+    # (its length shifted by a byte): implausible, so the reader looks again from the
+    # next byte, where the record is.
+    records = [b"\x01" * 8, b"\x02" * 300, b"\x03" * 8]
+    content = classic_pcap(1, records[:1])
+    stray = len(content)
+    content += b"\xff" + classic_pcap(1, records[1:])[24:]
+    packets, issues = read(content, 1 << 20)
+    assert [data for _, _, data in packets] == records
+    assert issues == [stray]
+
+
+def test_a_block_length_of_no_whole_quadlets_is_no_packet_block_even_with_its_trailer() -> None:
+    head = section() + interface(147)
+    bad = struct.pack("<II", 0x99, 14) + bytes(8)
+    fake = struct.pack("<II", 6, 34) + bytes(20) + struct.pack("<I", 34)
+    real = enhanced(0, 7, b"\x77" * 4)
+    packets, issues = read(head + bad + fake + real, 1 << 20)
+    assert [(position, data) for position, _, data in packets] == [
+        (len(head) + len(bad) + len(fake), b"\x77" * 4)
+    ]
+    assert issues == [len(head)]
