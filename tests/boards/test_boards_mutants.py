@@ -12,14 +12,14 @@ from __future__ import annotations
 
 from fw1394.boards.qla1.board import Qla1Board
 from fw1394.boards.qla1.ethernet import EthernetPort, Reply
-from fw1394.boards.qla1.firewire import ClockedBoard
+from fw1394.boards.qla1.firewire import ClockedBoard, reaches_every_node
 from fw1394.boards.qla1.hub import HubBlock, HubState
 from fw1394.boards.qla1.paths import ETHERNET_PATH, FIREWIRE_PATH
 from fw1394.boards.qla1.prom import ConfigProm
 from fw1394.boards.qla1.status import BoardControl
 from fw1394.boards.snake2010.regmap import REGISTER_MAP as SNAKE2010_MAP
 from fw1394.engine import JHU_FIRMWARE, Responder
-from fw1394.packets import QuadletReadRequest
+from fw1394.packets import BlockWriteRequest, QuadletReadRequest
 from fw1394.packets.nodeid import node_id
 
 WRITE_ENABLE = 0x06
@@ -184,3 +184,15 @@ def test_every_quadlet_of_the_qla_prom_buffer_window_takes_a_write() -> None:
     for n in range(0x100):
         board.write_quadlet(0x3100 + n, 0x51000000 + n)
     assert board.read_quadlet(0x3100 + 3) == 0x51000003
+
+
+def test_a_block_write_to_node_0_at_the_fake_broadcast_offset_reaches_every_node() -> None:
+    # §1.7 and §3.1: a block write to node 0 at 0xFFFF_FFFF_0000 is active for every node.
+    def block_write(offset: int) -> BlockWriteRequest:
+        return BlockWriteRequest(
+            destination_id=0xFFC0, tlabel=1, source_id=0xFFD0, offset=offset, data=bytes(8)
+        )
+
+    assert reaches_every_node(block_write(0xFFFF_FFFF_0000))
+    for near in (0xFFFF_FFFE_FFFF, 0xFFFF_FFFF_0001, 0xFFFF_FFFF_0004):
+        assert not reaches_every_node(block_write(near))
