@@ -10,6 +10,8 @@ instruction the chip does not know does nothing.
 
 from __future__ import annotations
 
+from fw1394.boards.config_rom import with_config_rom
+from fw1394.boards.memory.board import MemorySpace
 from fw1394.boards.qla1.board import Qla1Board
 from fw1394.boards.qla1.ethernet import EthernetPort, Reply
 from fw1394.boards.qla1.firewire import ClockedBoard, reaches_every_node
@@ -196,3 +198,18 @@ def test_a_block_write_to_node_0_at_the_fake_broadcast_offset_reaches_every_node
     assert reaches_every_node(block_write(0xFFFF_FFFF_0000))
     for near in (0xFFFF_FFFE_FFFF, 0xFFFF_FFFF_0001, 0xFFFF_FFFF_0004):
         assert not reaches_every_node(block_write(near))
+
+
+class _Tooled(MemorySpace):
+    """A board with something of its own beyond the address space (a tool, say)."""
+
+    def __init__(self) -> None:
+        super().__init__(16)
+        self.armed = "the board's"
+        self.zeroed = "the board's too"
+
+
+def test_a_rom_window_offers_what_its_board_offers_whatever_its_name() -> None:
+    window = with_config_rom(_Tooled(), bus="lab", board_id=1, rank=1, model="memory")
+    # Names before and after "board" in sort order alike.
+    assert (window.armed, window.zeroed) == ("the board's", "the board's too")
