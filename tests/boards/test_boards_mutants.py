@@ -213,3 +213,31 @@ def test_a_rom_window_offers_what_its_board_offers_whatever_its_name() -> None:
     window = with_config_rom(_Tooled(), bus="lab", board_id=1, rank=1, model="memory")
     # Names before and after "board" in sort order alike.
     assert (window.armed, window.zeroed) == ("the board's", "the board's too")
+
+
+#: jhu-eth1394.md §1.6: block read of node 0, offset 0, 128 bytes (the real-time block),
+#: tl=39, generation 5, no-forward; and the same of the hub memory at 0x1000 (CRC here).
+BREAD_RT_BLOCK = bytes.fromhex("0105ffc09c50ffd000000000000000800000fc9a49db")
+
+
+def test_only_a_read_of_hub_memory_waits_for_the_boards_of_the_round() -> None:
+    # A broadcast query names board 1, which has not reported: a read of the hub's
+    # memory waits for it, a read of the board's own real-time block does not.
+    port = _port()
+    port.board.write_quadlet(0x1800, 1 << 16 | 0b10)
+    (answer,) = port.receive(BREAD_RT_BLOCK, ("127.0.0.1", 5000), 0.0)
+    assert isinstance(answer, Reply) and len(answer.packet) == 20 + 128 + 4
+    header = bytes.fromhex("ffc09c50ffd0000000001000") + (128 << 16).to_bytes(4, "big")
+    hub_read = b"\x01\x05" + header + crc32_1394(header).to_bytes(4, "big")
+    assert port.receive(hub_read, ("127.0.0.1", 5000), 0.0) == []
+
+
+def crc32_1394(data: bytes) -> int:
+    """IEEE 1394's CRC: polynomial 0x04C11DB7, initial value and final xor all ones, MSB first."""
+    crc = 0xFFFFFFFF
+    for byte in data:
+        crc ^= byte << 24
+        for _ in range(8):
+            crc = (crc << 1) ^ 0x04C11DB7 if crc & 0x80000000 else crc << 1
+            crc &= 0xFFFFFFFF
+    return crc ^ 0xFFFFFFFF
