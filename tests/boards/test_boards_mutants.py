@@ -241,3 +241,12 @@ def crc32_1394(data: bytes) -> int:
             crc = (crc << 1) ^ 0x04C11DB7 if crc & 0x80000000 else crc << 1
             crc &= 0xFFFFFFFF
     return crc ^ 0xFFFFFFFF
+
+
+def test_a_status_write_asks_for_power_only_with_a_masked_power_or_amplifier_enable() -> None:
+    # §4 STATUS: bit 19/18 power mask/value; (mask << 8) | state of the amplifiers.
+    asks = [
+        BoardControl().command(value).asks_for_power
+        for value in (1 << 19 | 1 << 18, 1 << 18, 1 << 19, 0x0101, 0x0100, 0x0001)
+    ]
+    assert asks == [True, False, False, True, False, False]
