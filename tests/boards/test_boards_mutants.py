@@ -229,7 +229,10 @@ def test_only_a_read_of_hub_memory_waits_for_the_boards_of_the_round() -> None:
     assert isinstance(answer, Reply) and len(answer.packet) == 20 + 128 + 4
     header = bytes.fromhex("ffc09c50ffd0000000001000") + (128 << 16).to_bytes(4, "big")
     hub_read = b"\x01\x05" + header + crc32_1394(header).to_bytes(4, "big")
-    assert port.receive(hub_read, ("127.0.0.1", 5000), 0.0) == []
+    assert port.receive(hub_read, ("127.0.0.1", 5000), 1.0) == []
+    assert port.poll(1.0 + port.hub_read_wait / 2) == []  # still waiting
+    (late,) = port.poll(1.0 + port.hub_read_wait)  # the wait is over: answered as it is
+    assert isinstance(late, Reply) and len(late.packet) == 20 + 128 + 4
 
 
 def crc32_1394(data: bytes) -> int:
@@ -250,3 +253,13 @@ def test_a_status_write_asks_for_power_only_with_a_masked_power_or_amplifier_ena
         for value in (1 << 19 | 1 << 18, 1 << 18, 1 << 19, 0x0101, 0x0100, 0x0001)
     ]
     assert asks == [True, False, False, True, False, False]
+
+
+def test_motor_status_reads_an_amplifier_on_from_firmware_8() -> None:
+    # §4 MOTOR_STATUS (channel register 12, Rev 8+): bit 29 amp on, bit 28 enable requested.
+    for firmware in (8, 9):
+        board = Qla1Board(board_id=0, physical_id=0, firmware=firmware)
+        board.write_quadlet(0, 1 << 19 | 1 << 18)  # power on
+        board.write_quadlet(0x11, 1 << 31 | 1 << 29 | 1 << 28 | 0x8000)  # enable axis 1
+        assert board.read_quadlet(0x1C) >> 28 & 0b11 == 0b11
+        assert board.read_quadlet(0x2C) >> 28 & 0b11 == 0
