@@ -17,10 +17,12 @@ from pathlib import Path
 import pytest
 
 from fw1394.capture.formats import batch as batches
-from fw1394.capture.formats import containers, kernel, nosy, sources
+from fw1394.capture.formats import containers, kernel, kernel_trace, nosy, sources
+from fw1394.capture.formats import eth1394_udp as udp
 from fw1394.capture.formats.chunks import read_into
 from fw1394.capture.formats.pseudo_header import decode as decode_pseudo_header
 from fw1394.capture.formats.record import BusRecord, RecordType
+from fw1394.capture.formats.trace_writer import record_bytes
 
 
 def pcapng_block(block_type: int, body: bytes) -> bytes:
@@ -284,3 +286,160 @@ def test_an_empty_block_before_the_interface_does_not_hide_its_link_type() -> No
     empty = struct.pack("<III", 0x99, 12, 12)
     assert sources.detect_head(section() + empty + interface(147), "empty.pcapng") == "fw1394"
     assert sources.detect_head(section() + empty + interface(1), "empty.pcapng") == "udp"
+
+
+def test_nosy_dump_records_are_numbered_from_frame_1(tmp_path: Path) -> None:
+    # Three bus resets: each record a little-endian length of 4 and the timestamp.
+    path = tmp_path / "resets.nosy"
+    path.write_bytes(b"".join(struct.pack("<iI", 4, 1000 * n) for n in range(3)))
+    (batch,) = [job() for job in sources.jobs(str(path), "nosy")]
+    assert [int(f) for f in batch.frame] == [1, 2, 3]
+
+
+def test_a_firewire_ohci_phy_line_gives_the_quadlet_and_its_inverse() -> None:
+    # tests/data/firewire-ohci-dmesg.txt, line 8.
+    line = "[  431.206331] firewire_ohci 0000:05:00.0: AT ack_complete, PHY 01bf0000 fe40ffff\n"
+    (batch,) = list(kernel.read_batches(io.StringIO(line)))
+    record = batch.record(0)
+    assert record.record_type == RecordType.phy_packet
+    assert record.data == bytes.fromhex("01bf0000fe40ffff")
+
+
+def test_a_pcap_header_cut_short_names_no_link_type() -> None:
+    head = struct.pack("<IHH", 0xA1B2C3D4, 2, 4)  # 8 of the header's 24 bytes
+    assert sources.detect_head(head, "short.pcap") == "udp"
+
+
+def test_kernel_times_reach_the_largest_signed_64_bit_nanosecond() -> None:
+    # 2**63 - 1 ns = 9223372036.854775807 s: the last time a record can hold.
+    assert kernel_trace.nanoseconds("9223372036", "854775807") == 2**63 - 1
+    assert kernel_trace.nanoseconds("5000000000", "5") == 5_000_000_000_500_000_000
+    with pytest.raises(kernel_trace.TraceLineError):
+        kernel_trace.nanoseconds("9223372036", "854775808")
+
+
+def test_header_quadlets_past_a_short_packets_end_are_zero_not_the_next_packet() -> None:
+    short = BusRecord(1, RecordType.async_packet, bytes.fromhex("ffc00c40ffc1ffff00000004"), 5)
+    after = BusRecord(2, RecordType.async_packet, b"\xee" * 20, 5)
+    batch = batches.from_records([short, after], [1, 2])
+    quadlets = batches.header_quadlets(batch, None, 5).tolist()
+    assert quadlets[0] == [0xFFC00C40, 0xFFC1FFFF, 4, 0, 0]
+    assert quadlets[1] == [0xEEEEEEEE] * 5
+
+
+def test_frames_too_short_for_their_headers_are_other_traffic_and_unknown_links_a_problem() -> None:
+    ethernet = bytes(12) + b"\x08\x00"
+    assert udp.udp_payload(1, ethernet[:10]) is None  # not even an Ethernet header
+    assert udp.udp_payload(1, ethernet + b"\x45\x00\x00\x1c\x00") is None  # IPv4 cut short
+    assert udp.udp_payload(1, ethernet + b"\x45" + bytes(18)) is None  # one byte short
+    assert udp.udp_payload(999, bytes(40)) == "unsupported link type 999"
+
+
+def test_records_keep_the_positions_they_are_given() -> None:
+    records = [BusRecord(n, RecordType.bus_reset, b"", n) for n in range(3)]
+    batch = batches.from_records(records, [1, 2, 3], [100, 228, 356])
+    assert [int(p) for p in batch.position] == [100, 228, 356]
+    assert [int(f) for f in batch.frame] == [1, 2, 3]
+
+
+def test_only_ip_ethertypes_carry_datagrams() -> None:
+    # An ARP frame (0x0806) whose bytes would read as an IPv6 UDP datagram to port 1394.
+    ipv6_like = bytearray(48)
+    ipv6_like[6] = 17  # "next header: UDP"
+    ipv6_like[40:44] = struct.pack(">HH", 40000, 1394)
+    assert udp.udp_payload(1, bytes(12) + b"\x08\x06" + bytes(ipv6_like)) is None
+    assert udp.udp_payload(1, bytes(12) + b"\x86\xdd" + bytes(ipv6_like)) is not None
+
+
+def test_interface_options_without_an_end_marker_are_read_to_the_trailer() -> None:
+    # if_tsresol (9) = 9, nanoseconds, as the last option, with no opt_endofopt after it.
+    idb = pcapng_block(1, struct.pack("<HHI", 147, 0, 0) + struct.pack("<HHB3x", 9, 1, 9))
+    content = section() + idb + enhanced(0, 1_700_000_000_123_456_789, b"\x01" * 4)
+    (chunk,) = containers.read_chunks(io.BytesIO(content), chunk_size=1 << 20)
+    assert int(chunk.ts_ns[0]) == 1_700_000_000_123_456_789
+
+
+def test_a_pcap_file_of_its_header_alone_is_detected_by_its_link_type() -> None:
+    header = struct.pack("<IHHiIII", 0xA1B2C3D4, 2, 4, 0, 0, 65535, 147)
+    assert sources.detect_head(header, "empty.pcap") == "fw1394"
+
+
+def test_a_nosy_dump_packet_of_whole_quadlets_reads_without_issues(tmp_path: Path) -> None:
+    words = [0xFFC00140, 0xFFC1FFFF, 0xF0000400, 0x12345678]
+    path = tmp_path / "read.nosy"
+    path.write_bytes(struct.pack("<i6I", 24, 10, *words, 0x1232))
+    (batch,) = [job() for job in sources.jobs(str(path), "nosy")]
+    assert len(batch) == 1 and batch.issues == []
+
+
+def test_a_self_id_sequence_alone_gives_self_ids_and_no_bus_reset() -> None:
+    # tests/data/firewire-tracepoints.txt, line 15, in a generation no bus reset listed.
+    line = (
+        "kworker/1:2-97 [001] ..... 2107.431052: self_id_sequence: card_index=0 generation=3"
+        " phy_id=0x00 link_active=true gap_count=63 scode=2 contender=false power_class=4"
+        " initiated_reset=false port_status={0x2,0x1,0x1} self_id_sequence={0x807f8494}\n"
+    )
+    (batch,) = list(kernel.read_batches(io.StringIO(line)))
+    assert batch.issues == []
+    assert [batch.record(i).record_type for i in range(len(batch))] == [RecordType.phy_packet]
+    assert batch.record(0).data[:4] == bytes.fromhex("807f8494")
+
+
+def test_a_file_cut_inside_a_block_says_how_many_bytes_are_left() -> None:
+    content = section() + interface(147) + enhanced(0, 1, b"\x01" * 4)[:20]
+    packets, _ = read(content, 1 << 20)
+    issues = [
+        (issue.position, issue.message)
+        for chunk in containers.read_chunks(io.BytesIO(content), chunk_size=1 << 20)
+        for issue in chunk.issues
+    ]
+    assert packets == [] and issues == [(len(content) - 20, "truncated block (20 bytes)")]
+
+
+@pytest.mark.parametrize("chunk_size", range(40, 144, 4))
+def test_blocks_after_a_bad_one_are_read_whatever_the_chunks(chunk_size: int) -> None:
+    # A skip past damage stops at a packet block that the next chunk completes, rather
+    # than at the chunk's end.
+    head = section() + interface(147)
+    bad = struct.pack("<II", 0x99, 14) + bytes(8)
+    content = head + bad + b"".join(enhanced(0, n, bytes([n]) * 4) for n in (1, 2, 3))
+    packets, issues = read(content, chunk_size)
+    start = len(head) + len(bad)
+    assert sorted(packets) == [(start + 36 * (n - 1), 147, bytes([n]) * 4) for n in (1, 2, 3)]
+    # The damage is reported where it starts (and again where a chunk resumes inside it).
+    assert issues[0] == len(head) and all(len(head) <= at < start for at in issues)
+
+
+def test_a_header_crc_below_the_right_one_is_no_more_sound_than_one_above() -> None:
+    # docs/capture-format.md's example request with its header CRC (0x11ab9b77) replaced.
+    request = bytes.fromhex("ffc00c40ffc1fffff0000400")
+    for crc in (0, 0x11AB9B76, 0x11AB9B78, 0xFFFFFFFF):
+        record = BusRecord(1, RecordType.async_packet, request + struct.pack(">I", crc), 5, 1)
+        assert not struct.unpack_from(">H", record_bytes(record), 4)[0] & 0x2  # crc_valid
+    sound = BusRecord(1, RecordType.async_packet, request + bytes.fromhex("11ab9b77"), 5, 1)
+    assert struct.unpack_from(">H", record_bytes(sound), 4)[0] & 0x2
+
+
+def test_pcap_resynchronises_one_byte_after_a_stray_byte() -> None:
+    # Read one byte early, the 300-byte record's header claims 300 * 256 + 0 bytes
+    # (its length shifted by a byte): implausible, so the reader looks again from the
+    # next byte, where the record is.
+    records = [b"\x01" * 8, b"\x02" * 300, b"\x03" * 8]
+    content = classic_pcap(1, records[:1])
+    stray = len(content)
+    content += b"\xff" + classic_pcap(1, records[1:])[24:]
+    packets, issues = read(content, 1 << 20)
+    assert [data for _, _, data in packets] == records
+    assert issues == [stray]
+
+
+def test_a_block_length_of_no_whole_quadlets_is_no_packet_block_even_with_its_trailer() -> None:
+    head = section() + interface(147)
+    bad = struct.pack("<II", 0x99, 14) + bytes(8)
+    fake = struct.pack("<II", 6, 34) + bytes(20) + struct.pack("<I", 34)
+    real = enhanced(0, 7, b"\x77" * 4)
+    packets, issues = read(head + bad + fake + real, 1 << 20)
+    assert [(position, data) for position, _, data in packets] == [
+        (len(head) + len(bad) + len(fake), b"\x77" * 4)
+    ]
+    assert issues == [len(head)]

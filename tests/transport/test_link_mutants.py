@@ -197,3 +197,41 @@ def test_a_decoded_read_whose_response_no_datagram_carries_is_acked_alone() -> N
     link.serve_packet(read, False, HOST_PHY, 9, 0.0)
     assert sent == [(ACK, HOST_PHY, struct.pack(">BBHI", ACK_PENDING_BYTE, 4, 0, 9))]
     assert dropped == [HOST_PHY]
+
+
+def test_the_roles_reset_hooks_take_keywords_only_too() -> None:
+    links = [responder()[0], RequesterLink(Requester(node_id=HOST_ID), lambda k, d, p: None)]
+    for link in links:
+        with pytest.raises(TypeError):
+            link.bus_reset(1, 2)  # type: ignore[call-arg]
+        with pytest.raises(TypeError):
+            link.excluded(2)  # type: ignore[call-arg]
+
+
+def test_a_new_link_runs_its_stations_timers_at_its_first_turn() -> None:
+    station = StandInStation()
+    link, _ = responder(station)
+    link.keep_timers(0.5)
+    assert station.serviced == [0.5]
+
+
+class _ClockedSpace(MemorySpace):
+    """Memory that records the board time it is told (49.152 MHz ticks)."""
+
+    def __init__(self) -> None:
+        super().__init__(4096)
+        self.clock: list[int] = []
+
+    def set_time(self, ticks: int) -> None:
+        self.clock.append(ticks)
+        super().set_time(ticks)
+
+
+def test_without_an_epoch_the_board_clock_is_the_links_time() -> None:
+    space = _ClockedSpace()
+    link = ResponderLink(
+        Responder(node_id=0xFFFF, space=space, policy=THESIS_FPGA), lambda k, d, p: None
+    )
+    link.apply([BusReset(generation=3, phy_id=NODE_PHY, members=(), initiator=0)])
+    link.take(request_frame(1), read_request(), 2.5)
+    assert space.clock[-1] == 49_152_000 * 5 // 2

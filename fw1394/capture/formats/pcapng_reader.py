@@ -279,7 +279,14 @@ class _EpbRuns:
         count = len(words)
         candidates = np.flatnonzero(words[: max(count - 1, 0)] == EPB_TYPE)
         lengths = words[candidates + 1].astype(_I64)
-        ok = (lengths % 4 == 0) & (lengths >= 32) & (candidates * 4 + lengths <= size)
+        shaped = (lengths % 4 == 0) & (lengths >= 32)
+        fits = candidates * 4 + lengths <= size
+        ok = shaped & fits
+        #: Candidates that run past the chunk's end (or whose length is in the next
+        #: chunk): where a skip stops when no whole block follows.
+        tail = [count - 1] if count and words[count - 1] == EPB_TYPE else []
+        running_on = candidates[shaped & ~fits & (lengths <= MAX_RECORD)]
+        self.open_starts = np.concatenate([running_on, tail]).astype(_I64)
         candidates, lengths = candidates[ok], lengths[ok]
         ok = words[candidates + lengths // 4 - 1] == lengths
         self.starts = candidates[ok].astype(_I64)
@@ -299,4 +306,9 @@ class _EpbRuns:
 
     def next_start_after(self, word: int, size: int) -> int:
         index = int(np.searchsorted(self.starts, word, side="right"))
-        return int(self.starts[index]) if index < len(self.starts) else size // 4
+        if index < len(self.starts):
+            return int(self.starts[index])
+        # No whole block follows: stop where one may begin that the next chunk completes,
+        # rather than drop the chunk's tail with it.
+        later = int(np.searchsorted(self.open_starts, word, side="right"))
+        return int(self.open_starts[later]) if later < len(self.open_starts) else size // 4
