@@ -80,7 +80,7 @@ def pytest_configure_node(node: Any) -> None:
 
 @pytest.hookimpl(optionalhook=True)
 def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
-    return module_groups.ModuleGroups(config, _groups[0], log) if _groups else None
+    return module_groups.scheduler(config, _groups[0], log) if _groups else None
 
 
 @pytest.hookimpl(optionalhook=True)

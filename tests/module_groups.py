@@ -17,7 +17,6 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from xdist.scheduler.loadscope import LoadScopeScheduling  # type: ignore[import-untyped]
 
 #: Key of the directory the workers write into, in each worker's workerinput.
 KEY = "fw1394_module_groups"
@@ -46,17 +45,20 @@ def write_groups(directory: str, worker: str, items: list[pytest.Item]) -> None:
     os.replace(path.with_suffix(".part"), path)
 
 
-class ModuleGroups(LoadScopeScheduling):  # type: ignore[misc]
-    """Tests one at a time, in collection order, but a module's grouped tests as one unit."""
+def scheduler(config: pytest.Config, directory: str, log: Any) -> Any:
+    """xdist's LoadScopeScheduling, its units the workers' groups and single tests."""
+    from xdist.scheduler.loadscope import LoadScopeScheduling  # type: ignore[import-untyped]
 
-    def __init__(self, config: pytest.Config, directory: str, log: Any = None) -> None:
-        super().__init__(config, log)
-        self.directory = Path(directory)
-        self.groups: dict[str, str] | None = None
+    class ModuleGroups(LoadScopeScheduling):  # type: ignore[misc]
+        """Tests a few at a time, in collection order; a module's grouped tests as one unit."""
 
-    def _split_scope(self, nodeid: str) -> str:
-        if self.groups is None:  # every worker has collected by the first call
-            self.groups = {}
-            for path in self.directory.glob("*.json"):
-                self.groups.update(json.loads(path.read_text()))
-        return self.groups.get(nodeid, nodeid)
+        groups: dict[str, str] | None = None
+
+        def _split_scope(self, nodeid: str) -> str:
+            if self.groups is None:  # every worker has collected by the first call
+                self.groups = {}
+                for path in Path(directory).glob("*.json"):
+                    self.groups.update(json.loads(path.read_text()))
+            return self.groups.get(nodeid, nodeid)
+
+    return ModuleGroups(config, log)
