@@ -10,6 +10,8 @@ instruction the chip does not know does nothing.
 
 from __future__ import annotations
 
+import pytest
+
 from fw1394.boards.config_rom import with_config_rom
 from fw1394.boards.memory.board import MemorySpace
 from fw1394.boards.qla1.board import Qla1Board
@@ -21,6 +23,7 @@ from fw1394.boards.qla1.prom import ConfigProm
 from fw1394.boards.qla1.status import BoardControl
 from fw1394.boards.snake2010.regmap import REGISTER_MAP as SNAKE2010_MAP
 from fw1394.engine import JHU_FIRMWARE, Responder
+from fw1394.engine.space import AddressError
 from fw1394.packets import BlockWriteRequest, QuadletReadRequest
 from fw1394.packets.nodeid import node_id
 
@@ -263,3 +266,11 @@ def test_motor_status_reads_an_amplifier_on_from_firmware_8() -> None:
         board.write_quadlet(0x11, 1 << 31 | 1 << 29 | 1 << 28 | 0x8000)  # enable axis 1
         assert board.read_quadlet(0x1C) >> 28 & 0b11 == 0b11
         assert board.read_quadlet(0x2C) >> 28 & 0b11 == 0
+
+
+def test_every_quadlet_of_the_rom_window_refuses_a_write() -> None:
+    # IEEE 1212: the configuration ROM at 0xFFFF_F000_0400..07FF is read-only.
+    window = with_config_rom(MemorySpace(4096), bus="lab", board_id=1, rank=1, model="memory")
+    for offset in (0xFFFF_F000_0400, 0xFFFF_F000_0600, 0xFFFF_F000_07FC):
+        with pytest.raises(AddressError, match="configuration ROM"):
+            window.write_quadlet(offset, 0)
