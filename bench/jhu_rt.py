@@ -11,7 +11,7 @@ bridge mode, firmware 8 and before: a block read of hub memory at 0x1000 from
 the hub), then one broadcast block write carrying every board's write block.
 The commands are the same every cycle (every DAC valid at midrange, control
 word 0): an idle controller, not a moving one. The server waits for datagrams
-blocked in the kernel (poll), never busy-waiting, so each datagram pays the
+blocked in the kernel (epoll), never busy-waiting, so each datagram pays the
 scheduler's wake-up.
 
 Printed per run: the loop's rate beside raw UDP ping-pongs to the same server,

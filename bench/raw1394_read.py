@@ -146,21 +146,29 @@ def checkout(ref: str) -> Iterator[Path]:
         shutil.rmtree(place.parent, ignore_errors=True)
 
 
-def cpu_seconds(pid: int | None) -> float:
-    """User and system CPU time of process ``pid`` so far (0 if it is gone)."""
+def cpu_seconds(pid: int | None, user_only: bool = False) -> float:
+    """User and system CPU time of process ``pid`` so far (0 if it is gone);
+    ``user_only``: the user time alone (the process's own work, which the load
+    sways less than the kernel's wake-ups)."""
     try:
         fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
     except (OSError, IndexError):
         return 0.0
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    system = 0 if user_only else int(fields[12])
+    return (int(fields[11]) + system) / os.sysconf("SC_CLK_TCK")
 
 
-def rt_round(root: Path, reads: int) -> tuple[float, float, float, float]:
-    """One real-time round on a fresh bus with fw1394 from ``root``: cycles/s and
-    the CPU microseconds per transaction of the adapter, the nodes and the program."""
+def rt_round(root: Path, reads: int) -> tuple[float, float, float, float, float]:
+    """One real-time round on a fresh bus with fw1394 from ``root``: cycles/s, the
+    CPU microseconds per transaction of the adapter, the nodes and the program, and
+    the adapter's user CPU alone."""
     env = {**os.environ, "PYTHONPATH": str(root)}
-    script = [sys.executable, __file__, "--rt", "--rounds", "1", "--reads", str(reads), "--json"]
-    done = subprocess.run(script, env=env, capture_output=True, text=True, timeout=600)
+    script = [sys.executable, str(Path(__file__).resolve()), "--rt", "--rounds", "1"]
+    script += ["--reads", str(reads), "--json"]
+    # In ``root``: the bus's processes start with ``python -m``, which puts the
+    # working directory ahead of PYTHONPATH, so from any other checkout they
+    # would run that checkout's fw1394.
+    done = subprocess.run(script, env=env, cwd=root, capture_output=True, text=True, timeout=600)
     if done.returncode:
         last = (done.stderr.strip().splitlines() or ["no output"])[-1]
         sys.exit(f"raw1394_read.py: a round with fw1394 from {root} failed: {last}")
@@ -170,31 +178,42 @@ def rt_round(root: Path, reads: int) -> tuple[float, float, float, float]:
         report["adapter_cpu_us_per_transaction"][0],
         report["node_cpu_us_per_transaction"][0],
         report.get("program_cpu_us_per_transaction", [0.0])[0],  # older benches: none
+        report.get("adapter_user_cpu_us_per_transaction", [0.0])[0],
     )
 
 
 def compare(ref: str, rounds: int, reads: int) -> int:
     with checkout(ref) as before:
         sides = {"before": before, "after": HERE}
-        runs: dict[str, list[tuple[float, float, float, float]]] = {"before": [], "after": []}
+        runs: dict[str, list[tuple[float, float, float, float, float]]] = {
+            "before": [],
+            "after": [],
+        }
         print(f"real-time loop, 4 boards: {ref} (before) vs this checkout (after)")
         print(f"waiting: {IDLE_VARIABLE}={default_idle()} (shared machine)")
-        print("cycles/s, then CPU us per transaction of the adapter / all nodes / the program")
+        print(
+            "cycles/s, then CPU us per transaction of the adapter (its user CPU) / all nodes"
+            " / the program"
+        )
         for number in range(rounds):
             order = ["before", "after"] if number % 2 == 0 else ["after", "before"]
             for side in order:
                 runs[side].append(rt_round(sides[side], reads))
-            (b_hz, b_adapter, b_nodes, b_program), (a_hz, a_adapter, a_nodes, a_program) = (
-                runs["before"][-1],
-                runs["after"][-1],
-            )
+            (b_hz, b_adapter, b_nodes, b_program, b_user) = runs["before"][-1]
+            (a_hz, a_adapter, a_nodes, a_program, a_user) = runs["after"][-1]
             print(
-                f"round {number}: before {b_hz:.0f} Hz {b_adapter:.0f}/{b_nodes:.0f}/"
-                f"{b_program:.0f} us, after {a_hz:.0f} Hz {a_adapter:.0f}/{a_nodes:.0f}/"
-                f"{a_program:.0f} us, rate after/before {a_hz / b_hz:.2f} "
-                f"(load {os.getloadavg()[0]:.1f})"
+                f"round {number}: before {b_hz:.0f} Hz {b_adapter:.0f}({b_user:.0f})/"
+                f"{b_nodes:.0f}/{b_program:.0f} us, after {a_hz:.0f} Hz {a_adapter:.0f}"
+                f"({a_user:.0f})/{a_nodes:.0f}/{a_program:.0f} us, rate after/before "
+                f"{a_hz / b_hz:.2f} (load {os.getloadavg()[0]:.1f})"
             )
-    whats = ("cycles/s", "adapter CPU us/transaction", "node CPU us", "program CPU us")
+    whats = (
+        "cycles/s",
+        "adapter CPU us/transaction",
+        "node CPU us",
+        "program CPU us",
+        "adapter user CPU us",
+    )
     for index, what in enumerate(whats):
         before_values = [run[index] for run in runs["before"]]
         after_values = [run[index] for run in runs["after"]]
@@ -248,6 +267,8 @@ def main() -> int:
     #: Per real-time round: CPU microseconds per transaction of the adapter, of all
     #: nodes, of the program.
     cpu_us: list[tuple[float, float, float]] = []
+    #: Per real-time round: the adapter's user CPU microseconds per transaction.
+    adapter_user_us: list[float] = []
     try:
         with bus:
             bus.wait_members()
@@ -261,6 +282,7 @@ def main() -> int:
                 for _ in range(args.rounds):
                     cycles = args.reads // 4
                     spent = cpu_seconds(adapter), sum(map(cpu_seconds, nodes))
+                    user_before = cpu_seconds(adapter, user_only=True)
                     children = resource.getrusage(resource.RUSAGE_CHILDREN)
                     out = subprocess.run(
                         [str(program), str(cycles), str(boards)],
@@ -279,6 +301,9 @@ def main() -> int:
                             1e6 * (sum(map(cpu_seconds, nodes)) - spent[1]) / transactions,
                             1e6 * program_cpu / transactions,
                         )
+                    )
+                    adapter_user_us.append(
+                        1e6 * (cpu_seconds(adapter, user_only=True) - user_before) / transactions
                     )
                     rows.append((0.0, 0.0, float(out.stdout)))
             with AdapterPort(config.name, root=work / "fw1394") as port:
@@ -300,6 +325,7 @@ def main() -> int:
                 "adapter_cpu_us_per_transaction": [a for a, _, _ in cpu_us],
                 "node_cpu_us_per_transaction": [n for _, n, _ in cpu_us],
                 "program_cpu_us_per_transaction": [p for _, _, p in cpu_us],
+                "adapter_user_cpu_us_per_transaction": adapter_user_us,
             }
             print(json.dumps(report))
         else:
@@ -312,7 +338,8 @@ def main() -> int:
             node_us = statistics.median(n for _, n, _ in cpu_us)
             program_us = statistics.median(p for _, _, p in cpu_us)
             print(
-                f"CPU per transaction: adapter {adapter_us:.0f} us, nodes {node_us:.0f} us, "
+                f"CPU per transaction: adapter {adapter_us:.0f} us (user "
+                f"{statistics.median(adapter_user_us):.0f}), nodes {node_us:.0f} us, "
                 f"program {program_us:.0f} us"
             )
         return 0

@@ -14,14 +14,18 @@ A test that starts a process without the ``process`` marker fails (see
 from __future__ import annotations
 
 import compileall
+import os
 import re
 import shutil
 import subprocess
 import sys
+import tempfile
 from collections.abc import Iterator
 from contextlib import ExitStack
 from pathlib import Path
+from typing import Any
 
+import module_groups
 import pytest
 from bus_support import LaunchBus, bus_name, stop, wait_until_gone
 from hypothesis import HealthCheck, settings
@@ -50,8 +54,50 @@ def pytest_configure(config: pytest.Config) -> None:
     # when its longest test does, not later. An explicit --maxschedchunk wins.
     if config.pluginmanager.hasplugin("xdist") and config.getoption("maxschedchunk") is None:
         config.option.maxschedchunk = 1
+    # The default --dist load, with one change (module_groups): a module's process
+    # tests that share a bus run on one worker. Tests still go out a few at a time
+    # as workers free up, long tests first. An explicit --dist other than load wins.
+    if (
+        config.pluginmanager.hasplugin("xdist")
+        and config.getoption("dist") == "load"
+        and not hasattr(config, "workerinput")
+    ):
+        config.option.loadscopereorder = False  # collection order: the long tests first
+        _groups.append(tempfile.mkdtemp(prefix="fw1394-groups-"))
     if not hasattr(config, "workerinput"):  # once per run, not once per xdist worker
         _compile_package()
+
+
+# Where the xdist workers say which tests go together (empty: no grouping).
+_groups: list[str] = []
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_configure_node(node: Any) -> None:
+    if _groups:
+        node.workerinput[module_groups.KEY] = _groups[0]
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
+    return module_groups.ModuleGroups(config, _groups[0], log) if _groups else None
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_auto_num_workers(config: pytest.Config) -> int | None:
+    """``-n auto``: two workers per CPU, or one when the run starts no process.
+
+    Most of a test that starts processes is waiting for them (bus start-up, leases,
+    timeouts, tshark and iverilog runs): with one worker per core, the cores idle
+    through those waits. A second worker per core runs another test meanwhile. The
+    in-process tests are CPU-bound, so ``-m "not process"`` gets one per core.
+    ``PYTEST_XDIST_AUTO_NUM_WORKERS`` still decides when it is set.
+    """
+    if os.environ.get("PYTEST_XDIST_AUTO_NUM_WORKERS"):
+        return None
+    cpus = len(os.sched_getaffinity(0))
+    in_process_only = "not process" in (config.getoption("markexpr") or "")
+    return cpus if in_process_only else 2 * cpus
 
 
 # __pycache__ directories this run wrote, removed again at its end.
@@ -77,11 +123,11 @@ def _compile_package() -> None:
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
-    for directory in _written:
+    for directory in _written + _groups:
         shutil.rmtree(directory, ignore_errors=True)
 
 
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """The ``slow`` tests first, then those that start processes, then the rest.
 
     Tests that start processes take most of the run and mostly wait; the many
@@ -94,6 +140,9 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
         return 1 if item.get_closest_marker("process") is not None else 2
 
     items.sort(key=group)
+    worker = getattr(config, "workerinput", {})
+    if module_groups.KEY in worker:
+        module_groups.write_groups(worker[module_groups.KEY], worker["workerid"], items)
 
 
 @pytest.fixture

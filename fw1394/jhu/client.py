@@ -17,6 +17,7 @@ server addresses.
 
 from __future__ import annotations
 
+import functools
 import select
 import socket
 from collections import deque
@@ -60,6 +61,8 @@ MAX_BOARDS = 16
 MAX_DATAGRAM = 65_535
 #: How many of the latest datagrams :attr:`EthUdpClient.sent` keeps.
 SENT_KEPT = 1024
+#: What the host remembers of a read (the loop asks with the same few labels and sizes).
+_host_read = functools.lru_cache(maxsize=1024)(HostReadRequest)
 # Plain ints: flag arithmetic on the enum costs more than the rest of a send.
 _NO_FORWARD = int(HostNodeFlag.NO_FORWARD)
 _ETH_BROADCAST = int(HostNodeFlag.ETH_BROADCAST)
@@ -106,6 +109,9 @@ class EthUdpClient:
         sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, 0)
         sock.setblocking(False)
         self.sock = sock
+        #: The wait for an answer, on this one socket, set up once (not per receive).
+        self._readable = select.poll()
+        self._readable.register(sock, select.POLLIN)
         #: The latest datagrams sent, oldest first: (destination address, payload), for
         #: tests and traces (bounded: a real-time loop sends thousands a second).
         self.sent: deque[tuple[tuple[str, int], bytes]] = deque(maxlen=SENT_KEPT)
@@ -172,18 +178,23 @@ class EthUdpClient:
 
     # -- receiving --------------------------------------------------------------------------
     def flush(self) -> int:
+        """Drop every datagram waiting; how many there were.
+
+        Asks the socket's poll first: on an empty socket (the usual case) a failed
+        receive would cost an exception as well as the system call.
+        """
         count = 0
-        while True:
+        while self._readable.poll(0):
             try:
                 self.sock.recv(MAX_DATAGRAM)
             except (BlockingIOError, InterruptedError):
                 return count
             count += 1
+        return count
 
     def _receive(self, size: int) -> bytes | None:
-        """One select() and one recv() of at most ``size`` bytes (longer ones are cut)."""
-        readable, _, _ = select.select([self.sock], [], [], self.receive_timeout)
-        if not readable:
+        """One wait (poll) and one recv() of at most ``size`` bytes (longer ones are cut)."""
+        if not self._readable.poll(1000.0 * self.receive_timeout):
             return None
         try:
             return self.sock.recv(size)
@@ -233,7 +244,7 @@ class EthUdpClient:
         )
         if not self._send(request, node, flags):
             return None
-        packet = self._read(HostReadRequest(node, tl), "ReadQuadlet")
+        packet = self._read(_host_read(node, tl), "ReadQuadlet")
         return None if packet is None else int.from_bytes(packet[12:16], "big")
 
     def write_quadlet_node(self, node: int, offset: int, value: int, flags: int = 0) -> bool:
@@ -267,7 +278,7 @@ class EthUdpClient:
         )
         if not self._send(request, node, flags):
             return None
-        packet = self._read(HostReadRequest(node, tl, length), "ReadBlock")
+        packet = self._read(_host_read(node, tl, length), "ReadBlock")
         return None if packet is None else packet[20 : 20 + length]
 
     def write_block_node(self, node: int, offset: int, data: bytes, flags: int = 0) -> bool:
@@ -287,5 +298,5 @@ class EthUdpClient:
 
     def receive_broadcast_response(self, tl: int, length: int) -> bytes | None:
         """Ethernet-only: the hub's unasked answer to a broadcast query (any source node)."""
-        packet = self._read(HostReadRequest(BROADCAST_NODE, tl, length), "ReceiveBroadcastRead")
+        packet = self._read(_host_read(BROADCAST_NODE, tl, length), "ReceiveBroadcastRead")
         return None if packet is None else packet[20 : 20 + length]

@@ -91,6 +91,8 @@ class HubPlan:
     family: str
     #: (board ID, the block size its header must give (Rev 8+)), in board order.
     boards: tuple[tuple[int, int], ...]
+    #: The boards' IDs, in board order.
+    board_ids: tuple[int, ...]
 
     @classmethod
     def of(cls, boards: Sequence[HubBoard]) -> HubPlan:
@@ -99,36 +101,39 @@ class HubPlan:
         sizes = tuple(
             (board.board_id, rt.rt_read_quadlets(board.firmware) + 1) for board in ordered
         )
-        return cls(name, sizes)
+        return cls(name, sizes, tuple(board.board_id for board in ordered))
 
     def split(self, words: Sequence[int], sequence: int) -> dict[int, list[int] | None]:
         """:func:`split_hub` of ``words`` for these boards."""
-        name = self.family
-        blocks: dict[int, list[int] | None] = dict.fromkeys(
-            (board_id for board_id, _ in self.boards), None
-        )
+        slots = self.family == "rev4-6"
+        rev8 = self.family == "rev8+"
+        fixed = REV4_6_SLOT if slots else REV7_BLOCK
+        low_sequence, full_sequence = sequence & 0xFF, sequence & 0xFFFF
+        blocks: dict[int, list[int] | None] = dict.fromkeys(self.board_ids, None)
         total = len(words)
         position = 0
         for board_id, expected in self.boards:
-            if name == "rev4-6":
+            if slots:
                 position = REV4_6_SLOT * board_id
-            header = words[position] if position < total else 0
-            status = words[position + 2] if position + 2 < total else 0
+            if position + 2 < total:
+                header, status = words[position], words[position + 2]
+            else:
+                header, status = (words[position] if position < total else 0), 0
             if header == 0 or status == 0:
                 break  # "invalid block": nothing after it is read either
-            if name == "rev8+":
+            if rev8:
                 size = header >> 24
                 good = (
-                    header >> 16 & 0xFF == sequence & 0xFF
+                    size == expected
+                    and header >> 16 & 0xFF == low_sequence
                     and not header & SEQUENCE_MISMATCH
-                    and size == expected
                 )
             else:
-                size = REV4_6_SLOT if name == "rev4-6" else REV7_BLOCK
-                good = header >> 16 == sequence & 0xFFFF and status >> AXES_SHIFT == AXES
-            good = good and status >> BOARD_ID_SHIFT & 0xF == board_id
-            chunk = list(words[position + 1 : position + size])
-            if good and len(chunk) == size - 1:
-                blocks[board_id] = chunk
-            position += max(size, 1)
+                size = fixed
+                good = header >> 16 == full_sequence and status >> AXES_SHIFT == AXES
+            # A good block is never empty (sizes are 17, 29 or the board's block + 1):
+            # it is whole when it ends within the data.
+            if good and status >> BOARD_ID_SHIFT & 0xF == board_id and position + size <= total:
+                blocks[board_id] = list(words[position + 1 : position + size])
+            position += size or 1
         return blocks

@@ -98,6 +98,10 @@ class RealTimeLoop:
         self._idle_words = [
             write_block(board.board_id, board.firmware, Command()) for board in self.boards
         ]
+        #: The broadcast write of a cycle with no commands: every board idle.
+        self._idle_data = pack([word for words in self._idle_words for word in words])
+        #: Hub memory's quadlets, unpacked by a format made once.
+        self._hub_format = struct.Struct(f">{self._hub_size // 4}I")
 
     # -- reads --------------------------------------------------------------------------
     def read_all(self) -> dict[int, list[int] | None]:
@@ -134,20 +138,25 @@ class RealTimeLoop:
         if data is None:
             return dict.fromkeys((board.board_id for board in self.boards), None)
         plan = self._hub_plan or HubPlan.of(self._hub_boards)
-        return plan.split(quadlets(data), self.sequence)
+        hub_format = self._hub_format
+        words = hub_format.unpack(data) if len(data) == hub_format.size else quadlets(data)
+        return plan.split(words, self.sequence)
 
     # -- writes -------------------------------------------------------------------------
     def write_all(self, commands: dict[int, Command] | None = None) -> bool:
         commands = commands or {}
         if self.protocol in (Protocol.SEQ_R_BC_W, Protocol.BC_QRW):
-            words: list[int] = []
-            for board, idle in zip(self.boards, self._idle_words, strict=True):
-                command = commands.get(board.board_id)
-                if command is None:
-                    words += idle
-                else:
-                    words += write_block(board.board_id, board.firmware, command)
-            ok = self.client.write_block_node(BROADCAST_NODE, 0, pack(words))
+            data = self._idle_data
+            if commands:
+                words: list[int] = []
+                for board, idle in zip(self.boards, self._idle_words, strict=True):
+                    command = commands.get(board.board_id)
+                    if command is None:
+                        words += idle
+                    else:
+                        words += write_block(board.board_id, board.firmware, command)
+                data = pack(words)
+            ok = self.client.write_block_node(BROADCAST_NODE, 0, data)
             for board in self.boards:
                 if board.firmware < 7:
                     command = commands.get(board.board_id, Command())

@@ -627,9 +627,9 @@ static int iso_pump(raw1394handle_t h);
 
 /* ---- waiting for a reply -------------------------------------------------------------
  *
- * A blocking call sleeps in recv until its reply comes: it does not poll. On a
+ * A blocking call sleeps in poll until its reply comes: it does not spin. On a
  * machine with fewer cores than the processes of a transaction (the program, the
- * adapter, the node), a polling program takes the CPU from the adapter or the node
+ * adapter, the node), a spinning program takes the CPU from the adapter or the node
  * that is to answer it. loop_iterate sleeps in poll on the socket and the eventfd. */
 
 /*
@@ -694,8 +694,10 @@ static int iterate(raw1394handle_t h, int user)
 				h->in_capacity = capacity;
 			}
 			/* A blocking call waits for the adapter alone; wake-ups and echoes are
-			 * loop_iterate's, which watches the eventfd too. */
-			if (user && poll(fds, 2, -1) < 0) {
+			 * loop_iterate's, which watches the eventfd too. Both wait in poll: a
+			 * recv asleep would also be woken, for nothing, each time the adapter
+			 * takes a request from the socket (its room to write grows). */
+			if (poll(fds, user ? 2 : 1, -1) < 0) {
 				if (errno == EINTR)
 					continue;
 				return broken(h, errno);
@@ -706,7 +708,7 @@ static int iterate(raw1394handle_t h, int user)
 					return -1;
 				h->signalled = 0;
 			}
-			if (user && !(fds[0].revents & (POLLIN | POLLHUP | POLLERR)))
+			if (!(fds[0].revents & (POLLIN | POLLHUP | POLLERR)))
 				continue;
 			got = recv(h->sock, h->in + h->in_length, h->in_capacity - h->in_length, 0);
 			if (got < 0 && (errno == EINTR || errno == EAGAIN))

@@ -31,9 +31,12 @@ POOL = [data for datas in SEEDS.values() for data in datas]
     suppress_health_check=list(HealthCheck),
     database=None,
 )
-@given(st.sampled_from([decoder.name for decoder in DECODERS]), st.randoms(use_true_random=False))
-def test_mutated_input_raises_only_the_library_errors(name: str, rng: random.Random) -> None:
+# The mutations come from a seeded Random: a failure prints its seed, which replays it.
+# (st.randoms() records every call instead, which cost four times the decoding.)
+@given(st.sampled_from([decoder.name for decoder in DECODERS]), st.integers(0, 2**64 - 1))
+def test_mutated_input_raises_only_the_library_errors(name: str, seed: int) -> None:
     decoder = BY_NAME[name]
+    rng = random.Random(seed)
     data = mutated(rng, rng.choice(SEEDS[name]), POOL)
     assert check(decoder, data) is None
 

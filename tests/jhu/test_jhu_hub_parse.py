@@ -7,6 +7,8 @@ from __future__ import annotations
 import threading
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from udp_ports_support import quiet_udp_port
 
 from fw1394.boards.qla1.eth_server import Eth1394Server
@@ -73,6 +75,98 @@ def test_a_zero_header_or_status_ends_the_parse() -> None:
     second = [0x0007 << 16, *block(1, 28, 2)]
     zero_status = [*good[:2], 0, *good[3:]]
     assert split_hub(zero_status + second + [0], boards, 7) == {0: None, 1: None}
+
+
+# -- any hub memory, parsed as §2.10 says --------------------------------------------------------
+
+#: §2.10 and §4.5: a Rev 4-6 slot and a Rev 7 block are 17 and 29 quadlets with the header;
+#: a Rev 8+ QLA block is 1 + 4 + 2 * 4 + 5 * 4 = 33.
+SLOT_REV4_6, BLOCK_REV7, BLOCK_REV8 = 17, 29, 33
+
+
+def spec_parse(
+    words: list[int], ids: list[int], firmware: int, sequence: int
+) -> dict[int, list[int] | None]:
+    """The host's parse (§2.10, BasePort::ReadAllBoardsBroadcast), board by board."""
+    parsed: dict[int, list[int] | None] = dict.fromkeys(ids, None)
+    position = 0
+    for board_id in sorted(ids):
+        if firmware < 7:
+            position = SLOT_REV4_6 * board_id
+        header = words[position] if position < len(words) else 0
+        status = words[position + 2] if position + 2 < len(words) else 0
+        if header == 0 or status == 0:
+            break
+        if firmware >= 8:
+            size = header >> 24
+            good = (
+                header >> 16 & 0xFF == sequence & 0xFF
+                and not header & 0x8000
+                and size == BLOCK_REV8
+            )
+        else:
+            size = SLOT_REV4_6 if firmware < 7 else BLOCK_REV7
+            good = header >> 16 == sequence & 0xFFFF and status >> 28 == 4
+        found = words[position + 1 : position + size]
+        if good and status >> 24 & 0xF == board_id and len(found) == size - 1:
+            parsed[board_id] = found
+        position += max(size, 1)
+    return parsed
+
+
+@st.composite
+def hub_memories(draw: st.DrawFn) -> tuple[list[int], list[int], int, int]:
+    """Hub memory of a round, laid out by §2.10, then damaged here and there."""
+    firmware = draw(st.sampled_from([4, 6, 7, 8, 9]))
+    ids = sorted(draw(st.lists(st.integers(0, 15), min_size=1, max_size=8, unique=True)))
+    sequence = draw(st.integers(0, 0xFFFF))
+    size = SLOT_REV4_6 if firmware < 7 else BLOCK_REV7 if firmware == 7 else BLOCK_REV8
+    memory = [0] * (16 * SLOT_REV4_6) if firmware < 7 else []
+    headers = []
+    for board_id in ids:
+        if firmware >= 8:
+            header = size << 24 | (sequence & 0xFF) << 16 | draw(st.integers(0, 0x7FFF))
+        else:
+            header = sequence << 16 | draw(st.integers(0, 0xFFFF))
+        status = 4 << 28 | board_id << 24 | draw(st.integers(0, 0xFFFFFF))
+        data = draw(st.lists(st.integers(0, 0xFFFFFFFF), min_size=size - 3, max_size=size - 3))
+        slot = [header, draw(st.integers(0, 0xFFFFFFFF)), status, *data]
+        headers.append(SLOT_REV4_6 * board_id if firmware < 7 else len(memory))
+        if firmware < 7:
+            memory[SLOT_REV4_6 * board_id : SLOT_REV4_6 * (board_id + 1)] = slot
+        else:
+            memory += slot
+    for _ in range(draw(st.integers(0, 3))):  # damage: a header, a status or any quadlet
+        start = draw(st.sampled_from(headers))
+        where = draw(st.sampled_from([start, start + 2, draw(st.integers(0, len(memory) - 1))]))
+        memory[where] = draw(
+            st.sampled_from(
+                [
+                    0,
+                    draw(st.integers(0, 0xFFFFFFFF)),
+                    memory[where] ^ 0x8000,  # Rev 8+: the mismatch bit
+                    memory[where] ^ 1 << 16,  # the sequence's low byte
+                    memory[where] ^ 1 << 24,  # Rev 8+ size, or the sequence's high byte;
+                    # or, in a status, the board
+                    memory[where] ^ 1 << 28,  # a status's axes
+                ]
+            )
+        )
+    if draw(st.booleans()):  # a header the firmware flagged (Rev 8+; before, an update time)
+        memory[draw(st.sampled_from(headers))] ^= 0x8000
+    memory = memory[: draw(st.integers(0, len(memory)))] if draw(st.booleans()) else memory
+    return memory, ids, firmware, sequence
+
+
+@settings(max_examples=300, deadline=None)
+@given(hub_memories())
+def test_the_parse_of_any_hub_memory_is_the_hosts(
+    case: tuple[list[int], list[int], int, int],
+) -> None:
+    memory, ids, firmware, sequence = case
+    boards = [HubBoard(board_id, firmware) for board_id in ids]
+    assert split_hub(memory, boards, sequence) == spec_parse(memory, ids, firmware, sequence)
+    assert split_hub(tuple(memory), boards, sequence) == spec_parse(memory, ids, firmware, sequence)
 
 
 def test_mixed_families_are_refused() -> None:

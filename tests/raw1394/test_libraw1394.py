@@ -310,10 +310,10 @@ WAITING_CALLS = ("send", "recv", "poll", "ppoll", "read", "sched_yield", "epoll_
 
 @pytest.mark.skipif(shutil.which("strace") is None, reason="strace is not installed")
 def test_a_blocking_call_sleeps_until_its_reply_comes(cache: Path, tmp_path: Path) -> None:
-    """A blocking read or write is one send and one receive that sleeps until the
-    reply is there: no polling (even where FW1394_IDLE asks the bus for it), no
-    eventfd touched when nothing for loop_iterate changed; and no reply is lost or
-    mixed up on the way."""
+    """A blocking read or write is a send, a poll that sleeps until the reply is
+    there and a receive: no spinning (even where FW1394_IDLE asks the bus for it),
+    no eventfd touched when nothing for loop_iterate changed; and no reply is lost
+    or mixed up on the way."""
     source = tmp_path / "round_trips.c"
     source.write_text(ROUND_TRIPS)
     program = tmp_path / "round_trips"
@@ -337,6 +337,6 @@ def test_a_blocking_call_sleeps_until_its_reply_comes(cache: Path, tmp_path: Pat
         for line in trace.read_text().splitlines()
         if "MSG_DONTWAIT" in line and line.startswith("recv")
     ]
-    # Per transaction one send and one receive; the rest (connecting, hello, the
-    # node count, the loader's reads) does not grow with the transactions.
-    assert len(made) <= 2 * transactions + 60, sorted(set(made))
+    # Per transaction a send, a poll and a receive; the rest (connecting, hello,
+    # the node count, the loader's reads) does not grow with the transactions.
+    assert len(made) <= 3 * transactions + 60, sorted(set(made))

@@ -209,6 +209,10 @@ class Qla1Board:
     def set_time(self, ticks: int) -> None:
         if ticks < self._now:
             raise ValueError(f"ticks: {ticks} is before the board's time {self._now}")
+        self._tick(ticks)
+
+    def _tick(self, ticks: int) -> None:
+        """The clock moves on to ``ticks`` (not before the board's time)."""
         self._now = ticks
         if DEFECT_WATCHDOG_DISABLED not in self.defects and self.watchdog.advance(ticks):
             self.control.disable_all_amps()
@@ -216,7 +220,7 @@ class Qla1Board:
     def advance_to(self, ticks: int) -> None:
         """:meth:`set_time` unless ``ticks`` is not after the board's time (then nothing)."""
         if ticks > self._now:
-            self.set_time(ticks)
+            self._tick(ticks)
 
     def read_quadlet(self, offset: int) -> int:
         _check_offset(offset)

@@ -184,9 +184,10 @@ class Eth1394Server:
         #: The port a socket's datagrams are for; None: every cabled port.
         self._targets: dict[socket.socket, int | None] = {}
         self._local: dict[int, str] = {}
-        #: Every socket, by file descriptor, registered once with the wait (a poll object).
+        #: Every socket, by file descriptor, registered once with the wait (an epoll: the
+        #: kernel keeps the set between waits instead of taking all of it every wait).
         self._by_fd: dict[int, socket.socket] = {}
-        self._wait = select.poll()
+        self._wait = select.epoll()
         self._running = True
         exclusive = not self.share_port
         hint = SHARE_OPTION
@@ -212,7 +213,7 @@ class Eth1394Server:
             raise
         for sock in self._targets:
             self._by_fd[sock.fileno()] = sock
-            self._wait.register(sock, select.POLLIN)
+            self._wait.register(sock.fileno(), select.EPOLLIN)
 
     @property
     def addresses(self) -> list[str]:
@@ -225,7 +226,7 @@ class Eth1394Server:
     def step(self, timeout: float) -> None:
         """Wait at most ``timeout`` s for datagrams; answer them and any timers due.
 
-        The wait blocks in the kernel (poll) until a datagram comes: no CPU is spent
+        The wait blocks in the kernel (epoll) until a datagram comes: no CPU is spent
         while the host is busy, at the price of the scheduler's wake-up on each
         datagram. Each readable socket gives one datagram per step; more waiting
         behind it make the next poll return at once.
@@ -233,7 +234,7 @@ class Eth1394Server:
         due = self.rack.next_deadline()
         if due is not None:
             timeout = max(0.0, min(timeout, due - self.now()))
-        ready = self._wait.poll(1000.0 * timeout)
+        ready = self._wait.poll(timeout)
         replies: list[tuple[int, Reply]] = []
         for fd, _ in ready:
             replies += self._receive(self._by_fd[fd])
@@ -283,6 +284,7 @@ class Eth1394Server:
         self._running = False
 
     def close(self) -> None:
+        self._wait.close()
         for sock in self._targets:
             sock.close()
         self._targets.clear()

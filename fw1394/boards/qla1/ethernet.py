@@ -129,13 +129,15 @@ Action = Reply | Forward | HubBroadcast
 
 def datagram(reply: Reply, processed_at: float, sent_at: float) -> bytes:
     """The UDP payload of ``reply`` with its two timers filled in (49.152 MHz ticks)."""
-
-    def ticks(seconds: float) -> int:
-        return min(max(int(seconds * TICKS_PER_SECOND), 0), 0xFFFF)
-
     received = reply.received_at
-    timers = ticks(processed_at - received), ticks(sent_at - received)
-    return reply.packet + extra_bytes(reply.extra, *timers)
+    return reply.packet + extra_bytes(
+        reply.extra, _timer_ticks(processed_at - received), _timer_ticks(sent_at - received)
+    )
+
+
+def _timer_ticks(seconds: float) -> int:
+    """A 16-bit timer of the extra bytes: ticks, held at 0 and at its top."""
+    return min(max(int(seconds * TICKS_PER_SECOND), 0), 0xFFFF)
 
 
 def decode_request(raw: bytes) -> Request | None:

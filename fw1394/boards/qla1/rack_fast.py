@@ -71,7 +71,8 @@ class RackFastPath:
         self._bridge = firmware < MULTICAST_FIRMWARE and len(self._ports) == 1
         self._firmware = firmware
         self._members = list(members)
-        self._board_ids = [member.board.board_id for member in members]
+        self._boards = [member.board for member in members]
+        self._board_ids = [board.board_id for board in self._boards]
         self._mask = sum(1 << board_id for board_id in self._board_ids)
         self._hub = next((n for n, port in enumerate(self._ports) if port.ethernet_hub), 0)
 
@@ -90,7 +91,7 @@ class RackFastPath:
         packet = decode_request(framed.packet)
         if packet is None or packet.destination_id != HOST_BROADCAST:
             return None
-        if any(member.board.defects for member in self._members):
+        if any([board.defects for board in self._boards]):
             return None
         if type(packet) is QuadletWriteRequest and packet.offset == HUB_QUERY:
             return self._query(packet, sender, now)
@@ -177,7 +178,7 @@ class RackFastPath:
         packet = decode_request(framed.packet)
         if packet is None or packet.destination_id != HOST_BROADCAST or packet.problems:
             return None
-        if any(member.board.defects for member in self._members):
+        if any([board.defects for board in self._boards]):
             return None
         hub = self._ports[0]
         if type(packet) is QuadletWriteRequest and packet.offset == HUB_QUERY:

@@ -268,7 +268,7 @@ def parse_request(body: bytes) -> Request:
 #: A whole request frame's length prefix and :data:`REQUEST`'s head, as one struct.
 _REQUEST_FRAME = struct.Struct(">I" + _REQUEST_HEAD.format[1:])
 _FRAME_DATA_AT = _REQUEST_FRAME.size + _U32.size
-#: A read's or a write's fields, as :func:`transfer` finds them: request number,
+#: A read's or a write's fields, as :func:`one_transfer` finds them: request number,
 #: op, node, generation, offset, length, quadlet, data.
 Transfer = tuple[int, int, int, int, int, int, int, bytes]
 

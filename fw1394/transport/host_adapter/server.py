@@ -201,16 +201,16 @@ class AdapterHost(BusHost):
         self.on_adopt: Callable[[int, Asked], None] = lambda tid, owner: None
         #: Told of each express flight that ended well: its owner, its data.
         self.on_answer: Callable[[Asked, bytes], None] = lambda owner, data: None
+        #: Frames may wait on the bus socket (:meth:`take_frames` stopped at an answer):
+        #: no request is read until they are taken, since one may be a bus reset. A
+        #: poll that finds the socket empty clears it.
+        self.behind = False
         self.express: Express[Asked] = Express(
             self,
             link,
             lambda tid, owner: self.on_adopt(tid, owner),
             lambda owner, data: self.on_answer(owner, data),
         )
-
-    @property
-    def bus_socket(self) -> socket.socket:
-        return self.station.medium.sock
 
     def next_wake(self) -> float:
         due, other = self.link.due, self.station.wake_by
@@ -231,7 +231,7 @@ class AdapterHost(BusHost):
         """Take every frame queued on the bus socket (never waits); whether any of
         them was a data frame (bus management expects no answer)."""
         link, station, express = self.link, self.station, self.express
-        taken = False
+        taken = self.behind = False
         for header, payload in station.catch_up():
             taken = True
             if express.flight is None or not express.take(header, payload, now):
@@ -239,6 +239,7 @@ class AdapterHost(BusHost):
             elif express.flight is None:
                 # The flight's answer, its reply sent: frames behind it wait for the
                 # next turn (the socket stays readable), not a receive that finds none.
+                self.behind = True
                 break
         flight = express.flight
         if flight is not None and flight.generation != station.generation:
@@ -358,7 +359,9 @@ class Adapter:
                 if fd == bus_fd:
                     bus_readable = True
                     break
-            if bus_readable and host.take_frames(now):
+            if not bus_readable:
+                host.behind = False  # nothing waited on the bus socket as we polled
+            elif host.take_frames(now):
                 self._traffic = now
             services.after_serve()
             if host._finished or host.raw:
@@ -366,7 +369,7 @@ class Adapter:
             # The programs have their replies; now the acks of the responses they ended.
             if link.acks:
                 link.send_acks()
-            for fd, _ in events:
+            for fd, _ in () if host.behind else events:
                 client = waiting(fd)
                 if client is not None:
                     self._read(client)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import select
 import signal
 import subprocess
 import sys
@@ -84,6 +85,11 @@ def main(argv: list[str]) -> int:
 
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)
+    # A signal writes to this pipe, so the wait below ends at once instead of at
+    # the end of its period: every stop of a bus waits for this process.
+    wake, wake_write = os.pipe()
+    os.set_blocking(wake_write, False)
+    signal.set_wakeup_fd(wake_write)
     directory = prepare(args.name, args.root)
     (directory / "supervisor.pid").write_text(str(os.getpid()))
     children: list[subprocess.Popen[bytes]] = []
@@ -106,7 +112,8 @@ def main(argv: list[str]) -> int:
             children.append(subprocess.Popen(commands[-1]))
             restarts.append(Restart())
         while not stopping:
-            time.sleep(0.1)
+            if select.select([wake], [], [], 0.1)[0]:
+                os.read(wake, 64)
             for index, child in enumerate(children):
                 if child.poll() is None or not args.restart or stopping:
                     continue  # reaped; without --restart a dead node stays down
