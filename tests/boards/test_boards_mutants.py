@@ -20,6 +20,7 @@ from fw1394.boards.qla1.firewire import ClockedBoard, reaches_every_node
 from fw1394.boards.qla1.hub import HubBlock, HubState
 from fw1394.boards.qla1.paths import ETHERNET_PATH, FIREWIRE_PATH
 from fw1394.boards.qla1.prom import ConfigProm
+from fw1394.boards.qla1.regmap import REGISTER_MAP as QLA_MAP
 from fw1394.boards.qla1.status import BoardControl
 from fw1394.boards.snake2010.regmap import REGISTER_MAP as SNAKE2010_MAP
 from fw1394.engine import JHU_FIRMWARE, Responder
@@ -274,3 +275,30 @@ def test_every_quadlet_of_the_rom_window_refuses_a_write() -> None:
     for offset in (0xFFFF_F000_0400, 0xFFFF_F000_0600, 0xFFFF_F000_07FC):
         with pytest.raises(AddressError, match="configuration ROM"):
             window.write_quadlet(offset, 0)
+
+
+def test_the_qla_register_map_has_the_channel_registers_of_its_four_axes() -> None:
+    # §4: a QLA has 4 channels (STATUS bits 31:28); channel n's registers are at n << 4.
+    assert list(QLA_MAP.group("channel").copies) == [1, 2, 3, 4]
+    assert [QLA_MAP.offset("DAC", axis) for axis in (1, 2, 3, 4)] == [0x11, 0x21, 0x31, 0x41]
+
+
+def test_an_eth_status_write_clears_the_sticky_summary_error_only_with_bit_29() -> None:
+    # §2.5 / §3.2: a request for another bus sets the sticky summary error (extra byte 0
+    # bit 3); writing ETH_STATUS (register 12) with bit 29 clears it.
+    port = _port()
+    foreign = bytes.fromhex("ff800c40ffd0000000000004")  # quadlet read, bus 0x3FE
+    port.receive(b"\x01\x05" + foreign + crc32_1394(foreign).to_bytes(4, "big"), HOST, 0.0)
+    assert port.summary_error
+
+    def write_eth_status(value: int) -> None:
+        header = bytes.fromhex("ffc00d00ffd000000000000c") + value.to_bytes(4, "big")
+        port.receive(b"\x01\x05" + header + crc32_1394(header).to_bytes(4, "big"), HOST, 0.0)
+
+    write_eth_status(1 << 30)
+    assert port.summary_error
+    write_eth_status(1 << 29)
+    assert not port.summary_error
+
+
+HOST = ("127.0.0.1", 5000)
