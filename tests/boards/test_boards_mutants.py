@@ -284,8 +284,9 @@ def test_the_qla_register_map_has_the_channel_registers_of_its_four_axes() -> No
 
 
 def test_an_eth_status_write_clears_the_sticky_summary_error_only_with_bit_29() -> None:
-    # §2.5 / §3.2: a request for another bus sets the sticky summary error (extra byte 0
-    # bit 3); writing ETH_STATUS (register 12) with bit 29 clears it.
+    # §2.5, §3.2 and docs/boards/qla1.md: a request for another bus sets the sticky
+    # summary error (extra byte 0 bit 3) until ETH_STATUS (register 12) is written with
+    # bit 29.
     port = _port()
     foreign = bytes.fromhex("ff800c40ffd0000000000004")  # quadlet read, bus 0x3FE
     port.receive(b"\x01\x05" + foreign + crc32_1394(foreign).to_bytes(4, "big"), HOST, 0.0)
