@@ -46,7 +46,7 @@ def check_loop(endpoint: str, boards: int, namespace: str | None = None) -> str:
     for protocol in ("sequential", "broadcast-read-write"):
         run = fw1394(
             "jhu", "rt", "-p", f"udp:{endpoint}", "--cycles", "100", "--protocol", protocol,
-            "--receive-timeout", "0.2",
+            "--receive-timeout", "1.0",
             "--json", namespace=namespace,
         )  # fmt: skip
         assert run.returncode == 0, run.stderr + run.stdout
@@ -57,7 +57,9 @@ def check_loop(endpoint: str, boards: int, namespace: str | None = None) -> str:
 @pytest.mark.slow
 def test_bridge_hub_on_the_virtual_bus() -> None:
     name = bus_name("jhu")
-    fast = ("--heartbeat", "0.05", "--lease", "0.5")
+    # A lease well above a loaded machine's scheduling delays: a member dropped
+    # for a late heartbeat resets the bus, and the cycle it cuts fails the loop.
+    fast = ("--heartbeat", "0.05", "--lease", "2")
     up = fw1394("bus", "up", "--name", name, "--board", "qla1", "--nodes", "3",
                 "--eth1394", f"127.0.0.1:{PORT}", *fast)  # fmt: skip
     try:
