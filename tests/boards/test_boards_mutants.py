@@ -10,6 +10,8 @@ instruction the chip does not know does nothing.
 
 from __future__ import annotations
 
+import pytest
+
 from fw1394.boards.config_rom import with_config_rom
 from fw1394.boards.memory.board import MemorySpace
 from fw1394.boards.qla1.board import Qla1Board
@@ -18,9 +20,11 @@ from fw1394.boards.qla1.firewire import ClockedBoard, reaches_every_node
 from fw1394.boards.qla1.hub import HubBlock, HubState
 from fw1394.boards.qla1.paths import ETHERNET_PATH, FIREWIRE_PATH
 from fw1394.boards.qla1.prom import ConfigProm
+from fw1394.boards.qla1.regmap import REGISTER_MAP as QLA_MAP
 from fw1394.boards.qla1.status import BoardControl
 from fw1394.boards.snake2010.regmap import REGISTER_MAP as SNAKE2010_MAP
 from fw1394.engine import JHU_FIRMWARE, Responder
+from fw1394.engine.space import AddressError
 from fw1394.packets import BlockWriteRequest, QuadletReadRequest
 from fw1394.packets.nodeid import node_id
 
@@ -263,3 +267,39 @@ def test_motor_status_reads_an_amplifier_on_from_firmware_8() -> None:
         board.write_quadlet(0x11, 1 << 31 | 1 << 29 | 1 << 28 | 0x8000)  # enable axis 1
         assert board.read_quadlet(0x1C) >> 28 & 0b11 == 0b11
         assert board.read_quadlet(0x2C) >> 28 & 0b11 == 0
+
+
+def test_every_quadlet_of_the_rom_window_refuses_a_write() -> None:
+    # IEEE 1212: the configuration ROM at 0xFFFF_F000_0400..07FF is read-only.
+    window = with_config_rom(MemorySpace(4096), bus="lab", board_id=1, rank=1, model="memory")
+    for offset in (0xFFFF_F000_0400, 0xFFFF_F000_0600, 0xFFFF_F000_07FC):
+        with pytest.raises(AddressError, match="configuration ROM"):
+            window.write_quadlet(offset, 0)
+
+
+def test_the_qla_register_map_has_the_channel_registers_of_its_four_axes() -> None:
+    # §4: a QLA has 4 channels (STATUS bits 31:28); channel n's registers are at n << 4.
+    assert list(QLA_MAP.group("channel").copies) == [1, 2, 3, 4]
+    assert [QLA_MAP.offset("DAC", axis) for axis in (1, 2, 3, 4)] == [0x11, 0x21, 0x31, 0x41]
+
+
+def test_an_eth_status_write_clears_the_sticky_summary_error_only_with_bit_29() -> None:
+    # §2.5, §3.2 and docs/boards/qla1.md: a request for another bus sets the sticky
+    # summary error (extra byte 0 bit 3) until ETH_STATUS (register 12) is written with
+    # bit 29.
+    port = _port()
+    foreign = bytes.fromhex("ff800c40ffd0000000000004")  # quadlet read, bus 0x3FE
+    port.receive(b"\x01\x05" + foreign + crc32_1394(foreign).to_bytes(4, "big"), HOST, 0.0)
+    assert port.summary_error
+
+    def write_eth_status(value: int) -> None:
+        header = bytes.fromhex("ffc00d00ffd000000000000c") + value.to_bytes(4, "big")
+        port.receive(b"\x01\x05" + header + crc32_1394(header).to_bytes(4, "big"), HOST, 0.0)
+
+    write_eth_status(1 << 30)
+    assert port.summary_error
+    write_eth_status(1 << 29)
+    assert not port.summary_error
+
+
+HOST = ("127.0.0.1", 5000)
