@@ -186,7 +186,8 @@ def test_sigterm_stops_every_worker_and_keeps_their_findings(tmp_path: Path) -> 
     )
     try:
         wait_for(lambda: len(children(process.pid)) >= 2 or process.poll() is not None, STARTUP_S)
-        time.sleep(3)  # the workers import and fuzz
+        # The workers import and fuzz until their findings are handed on and written.
+        wait_for(lambda: len(reproducers(found)) >= 3 or process.poll() is not None, STARTUP_S)
         assert process.poll() is None
         workers = [int(pid) for pid in children(process.pid)]
         process.send_signal(signal.SIGTERM)
