@@ -66,6 +66,8 @@ def pytest_configure(config: pytest.Config) -> None:
         _groups.append(tempfile.mkdtemp(prefix="fw1394-groups-"))
     if not hasattr(config, "workerinput"):  # once per run, not once per xdist worker
         _compile_package()
+        if config.pluginmanager.hasplugin("xdist") and config.getoption("numprocesses"):
+            _rewrite_tests(config)
 
 
 # Where the xdist workers say which tests go together (empty: no grouping).
@@ -120,6 +122,37 @@ def _compile_package() -> None:
     before = set(package.rglob("__pycache__"))
     compileall.compile_dir(package, quiet=2)
     _written.extend(sorted(set(package.rglob("__pycache__")) - before))
+
+
+def _rewrite_tests(config: pytest.Config) -> None:
+    """Rewrite the test modules' asserts once, for every xdist worker to read.
+
+    Under PYTHONDONTWRITEBYTECODE pytest keeps no rewritten test module, so each
+    worker rewrote all of them again while it collected (about 4 s of CPU each).
+    pytest reads a rewritten module it finds in ``__pycache__`` whatever the
+    setting; this writes them with pytest's own functions, and when those are
+    not there (another pytest) the workers simply rewrite as before.
+    """
+    if not sys.dont_write_bytecode:
+        return
+    try:
+        from _pytest.assertion import rewrite
+
+        state = config.stash[rewrite.assertstate_key]
+        tail = rewrite.PYC_TAIL
+    except (ImportError, AttributeError, KeyError):
+        return
+    here = Path(__file__).parent
+    for path in sorted([*here.rglob("test_*.py"), *here.rglob("conftest.py")]):
+        cache = rewrite.get_cache_dir(path)
+        if not cache.exists():
+            cache.mkdir()
+            _written.append(cache)
+        try:
+            source_hash, code = rewrite._rewrite_test(path, config)
+            rewrite._write_pyc(state, code, source_hash, cache / (path.name[:-3] + tail))
+        except (AttributeError, TypeError, OSError, SyntaxError):
+            return  # another pytest's internals, or a module it will report itself
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
