@@ -111,7 +111,10 @@ def test_a_campaign_killed_mid_run_keeps_every_finding_so_far(tmp_path: Path, jo
     # Workers left behind end by themselves (the kernel tells them their parent died).
     wait_for(lambda: not any(alive(pid) for pid in workers), 60)
     files = reproducers(found)
-    assert not list(found.glob(".*.tmp")), "a half-written file was left behind"
+    # SIGKILL may land between a finding's write and its rename: that leaves at
+    # most one hidden file per killed process (the loader below must skip it).
+    leftovers = list(found.glob(".*.tmp"))
+    assert len(leftovers) <= 1 + len(workers), leftovers
     # Every file is a whole finding.
     loaded = load(found)
     assert [path for path, _ in loaded] == files and len(files) >= 3
