@@ -46,7 +46,7 @@ def check_loop(endpoint: str, boards: int, namespace: str | None = None) -> str:
     for protocol in ("sequential", "broadcast-read-write"):
         run = fw1394(
             "jhu", "rt", "-p", f"udp:{endpoint}", "--cycles", "100", "--protocol", protocol,
-            "--receive-timeout", "1.0",
+            "--receive-timeout", "0.2",
             "--json", namespace=namespace,
         )  # fmt: skip
         assert run.returncode == 0, run.stderr + run.stdout
