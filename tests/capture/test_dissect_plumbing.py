@@ -268,6 +268,7 @@ def test_capture_to_stdout_writes_only_the_trace(
 
 
 @pytest.mark.process
+@pytest.mark.slow
 def test_live_bus_piped_into_dissect_and_tshark(tmp_path: Path) -> None:
     name = f"pipe{os.getpid()}"
     up = fw1394("bus", "up", "--name", name, "--nodes", "2", timeout=90)

@@ -192,6 +192,7 @@ def test_offsets_print_as_48_bits(lua: Path, trace: Path) -> None:
     assert "offset=0xfffff0000400" in tshark(lua, trace, "-c", "40")  # the Info column
 
 
+@pytest.mark.slow
 def test_live_capture_piped_into_tshark(lua: Path, tmp_path: Path) -> None:
     """``fw1394 capture -w - | tshark -r - -X lua_script:fw1394.lua -Y ...`` on a real bus."""
     config = BusConfig(bus_name("tshark"))

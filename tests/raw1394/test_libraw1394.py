@@ -60,6 +60,7 @@ def host_order(text: str) -> int:
 
 
 @pytest.mark.skipif(shutil.which("testlibraw") is None, reason="libraw1394-tools not installed")
+@pytest.mark.slow
 def test_testlibraw_passes_against_a_bus_of_qla1_boards(cache: Path) -> None:
     with adapter_bus("testlibraw", 2, board="qla1") as bus:
         result = subprocess.run(

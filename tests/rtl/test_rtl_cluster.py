@@ -80,6 +80,7 @@ def test_fuzz_run_takes_a_cluster_address(
     ]
 
 
+@pytest.mark.slow
 def test_an_unreachable_cluster_is_one_line(capsys: pytest.CaptureFixture[str]) -> None:
     run = ["fuzz", "run", "rtl:thesis", "--max-cases", "1", "--cluster", "tcp://127.0.0.1:9"]
     assert main(run) == 2
