@@ -11,6 +11,7 @@ instruction the chip does not know does nothing.
 from __future__ import annotations
 
 import pytest
+from spec_crc import crc32_1394
 
 from fw1394.boards.config_rom import with_config_rom
 from fw1394.boards.memory.board import MemorySpace
@@ -237,17 +238,6 @@ def test_only_a_read_of_hub_memory_waits_for_the_boards_of_the_round() -> None:
     assert port.poll(1.0 + port.hub_read_wait / 2) == []  # still waiting
     (late,) = port.poll(1.0 + port.hub_read_wait)  # the wait is over: answered as it is
     assert isinstance(late, Reply) and len(late.packet) == 20 + 128 + 4
-
-
-def crc32_1394(data: bytes) -> int:
-    """IEEE 1394's CRC: polynomial 0x04C11DB7, initial value and final xor all ones, MSB first."""
-    crc = 0xFFFFFFFF
-    for byte in data:
-        crc ^= byte << 24
-        for _ in range(8):
-            crc = (crc << 1) ^ 0x04C11DB7 if crc & 0x80000000 else crc << 1
-            crc &= 0xFFFFFFFF
-    return crc ^ 0xFFFFFFFF
 
 
 def test_a_status_write_asks_for_power_only_with_a_masked_power_or_amplifier_enable() -> None:

@@ -18,6 +18,8 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import TextIO, cast
 
+from spec_crc import crc32_1394 as _crc32_1394
+
 from fw1394.capture.formats import batch as batches
 from fw1394.capture.formats import containers, kernel, kernel_trace, nosy, sources
 from fw1394.capture.formats import eth1394_udp as udp
@@ -305,17 +307,6 @@ def test_a_capture_ends_on_a_stop_request_or_its_packet_count() -> None:
     assert not Limits(stop, count=3).done(2) and Limits(stop, count=3).done(3)
     stop.set()
     assert Limits(stop).done(0)
-
-
-def _crc32_1394(data: bytes) -> int:
-    """IEEE 1394's CRC: polynomial 0x04C11DB7, initial value and final xor all ones, MSB first."""
-    crc = 0xFFFFFFFF
-    for byte in data:
-        crc ^= byte << 24
-        for _ in range(8):
-            crc = (crc << 1) ^ 0x04C11DB7 if crc & 0x80000000 else crc << 1
-            crc &= 0xFFFFFFFF
-    return crc ^ 0xFFFFFFFF
 
 
 def test_a_block_packet_is_written_as_sound_only_when_both_crcs_match() -> None:

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from spec_crc import crc32_1394
 
 from fw1394.capture.formats import sources
 from fw1394.capture.formats.record import BusRecord, RecordType
@@ -35,17 +36,6 @@ needs_wireshark = pytest.mark.skipif(
 LINKTYPE_USER0 = 147
 ASYNC, ACK, PHY, RESET = 0, 1, 2, 3  # pseudo-header record types
 CRC_PRESENT, CRC_VALID, ACK_PRESENT = 0x1, 0x2, 0x8
-
-
-def crc32_1394(data: bytes) -> int:
-    """IEEE 1394 header/data CRC: CRC-32 (0x04C11DB7), not reflected, init and xorout ~0."""
-    crc = 0xFFFFFFFF
-    for byte in data:
-        crc ^= byte << 24
-        for _ in range(8):
-            crc = (crc << 1) ^ 0x04C11DB7 if crc & 0x80000000 else crc << 1
-            crc &= 0xFFFFFFFF
-    return crc ^ 0xFFFFFFFF
 
 
 def with_crc(quadlets: bytes) -> bytes:

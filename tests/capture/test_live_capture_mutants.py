@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from spec_crc import crc32_1394
 
 from fw1394.capture.formats import bus_recorder, bus_tap, live
 from fw1394.capture.formats.bus_tap import BusTap
@@ -87,17 +88,6 @@ def seal(raw: bytes, key: bytes, counter: int) -> bytes:
 
 
 # -- IEEE 1394 packets --------------------------------------------------------------------------
-
-
-def crc32_1394(data: bytes) -> int:
-    """IEEE 1394's CRC: polynomial 0x04C11DB7, initial value and final xor all ones, MSB first."""
-    crc = 0xFFFFFFFF
-    for byte in data:
-        crc ^= byte << 24
-        for _ in range(8):
-            crc = (crc << 1) ^ 0x04C11DB7 if crc & 0x80000000 else crc << 1
-            crc &= 0xFFFFFFFF
-    return crc ^ 0xFFFFFFFF
 
 
 def with_crc(header: bytes) -> bytes:

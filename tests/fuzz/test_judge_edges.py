@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import struct
 
+from spec_crc import crc32_1394
+
 from fw1394.engine import Reply
 from fw1394.fuzz.judge import describe, difference, visible
 from fw1394.fuzz.reference import Certainty
@@ -19,17 +21,6 @@ from fw1394.packets import BlockReadResponse, QuadletReadResponse
 ACK_COMPLETE, ACK_PENDING = 0x1, 0x2
 RESP_ADDRESS_ERROR = 0x7
 TCODE_READ_QUADLET_RESPONSE = 0x6
-
-
-def crc32_1394(data: bytes) -> int:
-    """IEEE 1394's CRC-32 (polynomial 0x04C11DB7, MSB first, preset and inverted ones)."""
-    crc = 0xFFFFFFFF
-    for byte in data:
-        crc ^= byte << 24
-        for _ in range(8):
-            crc = ((crc << 1) ^ 0x04C11DB7) & 0xFFFFFFFF if crc & 0x80000000 else crc << 1
-            crc &= 0xFFFFFFFF
-    return crc ^ 0xFFFFFFFF
 
 
 def quadlet_read_response_bytes(tlabel: int, rcode: int, value: int) -> bytes:

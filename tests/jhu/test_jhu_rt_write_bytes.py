@@ -16,6 +16,7 @@ from collections.abc import Iterator
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from spec_crc import crc32_1394 as crc32_bzip2
 
 from fw1394.jhu.client import EthUdpClient
 from fw1394.jhu.rt_loop import Command, RealTimeLoop
@@ -29,17 +30,6 @@ IDLE_DAC = DAC_VALID | MIDRANGE
 BROADCAST_DESTINATION = 0xFFFF  # bus 0x3FF, node 63
 HOST_SOURCE = 0xFFD0
 TCODE_BLOCK_WRITE = 1
-
-
-def crc32_bzip2(data: bytes) -> int:
-    """§1.5: poly 0x04C11DB7 MSB first, init and final XOR 0xFFFFFFFF, no reflection."""
-    crc = 0xFFFFFFFF
-    for byte in data:
-        crc ^= byte << 24
-        for _ in range(8):
-            crc = (crc << 1) ^ 0x04C11DB7 if crc & 0x80000000 else crc << 1
-            crc &= 0xFFFFFFFF
-    return crc ^ 0xFFFFFFFF
 
 
 def spec_block(board_id: int, firmware: int, dacs: list[int], control: int) -> list[int]:

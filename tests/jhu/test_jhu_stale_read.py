@@ -13,6 +13,7 @@ import struct
 from collections.abc import Iterator
 
 import pytest
+from spec_crc import crc32_1394 as crc32_bzip2
 
 from fw1394.boards.qla1.eth_server import Eth1394Server
 from fw1394.boards.qla1.rack import Rack
@@ -25,17 +26,6 @@ QLA1 = 0x514C4131
 HOST_SOURCE = 0xFFD0
 QRESP_TCODE, QREAD_TCODE = 6, 4
 QUADLET_RESPONSE_DATAGRAM = 20 + 8  # QRESP + the extra bytes (§2.4)
-
-
-def crc32_bzip2(data: bytes) -> int:
-    """CRC-32/BZIP2 (§1.5), bit by bit, independent of fw1394's CRC code."""
-    crc = 0xFFFFFFFF
-    for byte in data:
-        crc ^= byte << 24
-        for _ in range(8):
-            crc = ((crc << 1) ^ 0x04C11DB7) if crc & 0x80000000 else crc << 1
-            crc &= 0xFFFFFFFF
-    return crc ^ 0xFFFFFFFF
 
 
 def qread(node: int, register: int, tl: int, *, with_crc: bool, generation: int = 0) -> bytes:

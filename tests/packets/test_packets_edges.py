@@ -15,6 +15,7 @@ import struct
 
 import pytest
 from construct import BitStruct, Int8ub, Int16ub, Int32ub, Nibble, Struct
+from spec_crc import crc32_1394
 
 from fw1394.crc import crc32
 from fw1394.packets import (
@@ -192,17 +193,6 @@ def test_a_lock_request_is_its_argument_then_its_data(
     )
     assert request.argument == block[:argument_size]
     assert request.lock_data == block[argument_size:]
-
-
-def crc32_1394(data: bytes) -> int:
-    """IEEE 1394's CRC-32 (polynomial 0x04C11DB7, MSB first, preset and inverted ones)."""
-    crc = 0xFFFFFFFF
-    for byte in data:
-        crc ^= byte << 24
-        for _ in range(8):
-            crc = (crc << 1) ^ 0x04C11DB7 if crc & 0x80000000 else crc << 1
-            crc &= 0xFFFFFFFF
-    return crc ^ 0xFFFFFFFF
 
 
 def block_write_bytes(data: bytes, data_crc_delta: int = 0) -> bytes:
