@@ -12,7 +12,7 @@ import os
 import pytest
 from bus_support import bus_name
 
-from fw1394.transport.media import shared_memory
+from fw1394.transport.media import idle
 from fw1394.transport.media.idle import IdleStrategy
 from fw1394.transport.media.shared_memory import SharedMedium
 from fw1394.transport.sansio.config import BusConfig
@@ -39,7 +39,7 @@ def test_an_adaptive_member_polls_only_on_an_uncrowded_bus(
 ) -> None:
     yields: list[None] = []
     monkeypatch.setattr(os, "sched_yield", lambda: yields.append(None))
-    monkeypatch.setattr(shared_memory, "cores_enough", lambda cpus: True)  # whatever the load
+    monkeypatch.setattr(idle, "cores_enough", lambda cpus: True)  # whatever the load
     config = BusConfig(bus_name("shm-crowded"), key=b"")
     member, sender = SharedMedium(config, 0.01, WINDOW), SharedMedium(config)
     try:

@@ -65,7 +65,7 @@ from fw1394.transport.host_adapter.protocol import (
 )
 from fw1394.transport.host_adapter.services import NodeServices, is_request
 from fw1394.transport.link import ACK, ACK_BYTES, ACK_SIZE, ASYNC_PACKET
-from fw1394.transport.media.idle import CHECK_EVERY, cores_enough
+from fw1394.transport.media.idle import PollPermit
 from fw1394.transport.sansio.config import BusConfig
 from fw1394.transport.sansio.membership import Timing
 from fw1394.transport.sansio.wire import ACK_PAYLOAD, NO_PHY, FrameHeader, pack_table
@@ -321,9 +321,7 @@ class Adapter:
         # polling for a window after traffic while every runnable task has a core.
         self._window = host.station.idle.window
         self._traffic = -math.inf
-        self._checked = -math.inf
-        self._enough = True
-        self._cpus = os.cpu_count() or 1
+        self._permit = PollPermit()
         self._yield: Callable[[], None] = getattr(os, "sched_yield", lambda: None)
 
     def close(self) -> None:
@@ -388,14 +386,10 @@ class Adapter:
         poll, clock = self._poller.poll, _clock
         now = clock()
         if self._window == math.inf:  # spin: always polls, and wakes for the timers
-            until, enough = min(self.host.next_wake(), now + _LONGEST_SLEEP), True
+            until = min(self.host.next_wake(), now + _LONGEST_SLEEP)
         else:
-            until = self._traffic + self._window
-            if now < until and now - self._checked >= CHECK_EVERY:
-                self._checked = now
-                self._enough = cores_enough(self._cpus)
-            enough = self._enough
-        if now < until and enough:
+            until = self._permit.until(now, self._traffic + self._window)
+        if now < until:
             pause = self._yield
             while True:
                 events = poll(0)

@@ -131,9 +131,6 @@ class Waiter:
     """
 
     __slots__ = (
-        "_checked",
-        "_cpus",
-        "_enough",
         "_kind_at",
         "_last",
         "_poll",
@@ -141,8 +138,8 @@ class Waiter:
         "_recv",
         "_timeout",
         "_yield",
-        "crowded",
         "deadline",
+        "permit",
         "sock",
         "strategy",
         "window",
@@ -165,12 +162,7 @@ class Waiter:
         self._yield: Callable[[], None] = getattr(os, "sched_yield", _no_yield)
         #: When this member last sent or received (monotonic seconds).
         self._last = -math.inf
-        self._cpus = os.cpu_count() or 1
-        #: Whether every runnable task had a core when last looked (at ``_checked``).
-        self._enough = True
-        self._checked = -math.inf
-        #: More members of this bus on this host than CPUs: never poll (see the module).
-        self.crowded = False
+        self.permit = PollPermit()
         self._kind_at, self._quiet_from = quiet_kinds or (0, 256)
         #: When the owner's timers are next due (monotonic); None: wake every poll interval.
         self.deadline: Callable[[], float] | None = None
@@ -181,7 +173,7 @@ class Waiter:
 
     def share_host(self, members: int) -> None:
         """This bus has ``members`` members on this host (this one included)."""
-        self.crowded = crowded(members, self._cpus)
+        self.permit.share_host(members)
 
     def receive(self, size: int) -> bytes | None:
         """The next datagram (at most ``size`` bytes), or None when the wait ran out."""
@@ -192,14 +184,7 @@ class Waiter:
             if window == math.inf:
                 until = now + self._poll
             else:
-                until = self._last + window
-                if self.crowded:
-                    until = now
-                elif now < until and now - self._checked >= CHECK_EVERY:
-                    self._checked = now
-                    self._enough = cores_enough(self._cpus)
-                if not self._enough:
-                    until = now
+                until = self.permit.until(now, self._last + window)
             if now < until:
                 recv, pause = self._recv, self._yield
                 while True:
@@ -244,6 +229,35 @@ def set_receive_timeout(sock: socket.socket, seconds: float) -> None:
     micros = max(1, int(seconds * 1e6))
     timeval = struct.pack("@ll", micros // 1_000_000, micros % 1_000_000)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVTIMEO, timeval)
+
+
+class PollPermit:
+    """Whether an adaptive member may go on polling (see the module): never on a
+    crowded bus, and only while every runnable task has a core, looked up at
+    most every :data:`CHECK_EVERY`."""
+
+    __slots__ = ("_checked", "_cpus", "_enough", "crowded")
+
+    def __init__(self) -> None:
+        self._cpus = os.cpu_count() or 1
+        #: Whether every runnable task had a core when last looked (at ``_checked``).
+        self._enough = True
+        self._checked = -math.inf
+        #: More members of this bus on this host than CPUs: never poll.
+        self.crowded = False
+
+    def share_host(self, members: int) -> None:
+        """This bus has ``members`` members on this host (this one included)."""
+        self.crowded = crowded(members, self._cpus)
+
+    def until(self, now: float, until: float) -> float:
+        """``until`` when polling may go on until then, else ``now`` (block at once)."""
+        if self.crowded:
+            return now
+        if now < until and now - self._checked >= CHECK_EVERY:
+            self._checked = now
+            self._enough = cores_enough(self._cpus)
+        return until if self._enough else now
 
 
 def crowded(members: int, cpus: int) -> bool:

@@ -99,11 +99,9 @@ from fw1394.packets.frame import field_offsets
 from fw1394.packets.nodeid import BROADCAST_PHY
 from fw1394.transport.media.idle import (
     BLOCK,
-    CHECK_EVERY,
     LONGEST_SLEEP,
     IdleStrategy,
-    cores_enough,
-    crowded,
+    PollPermit,
     set_receive_timeout,
 )
 from fw1394.transport.sansio.config import BusConfig
@@ -315,10 +313,7 @@ class SharedMedium:
         #: The owner's timers: block no longer than ``deadline()`` (see :meth:`sleep_until`).
         self.deadline: Callable[[], float] | None = None
         self._last = -math.inf
-        self._checked = -math.inf
-        self._enough = True
-        self._cpus = os.cpu_count() or 1
-        self._crowded = False
+        self._permit = PollPermit()
         self._selected = False
         self._yield: Callable[[], None] = getattr(os, "sched_yield", lambda: None)
 
@@ -831,13 +826,7 @@ class SharedMedium:
             now = clock()
             until = min(limit, self._last + window)
             if window != math.inf:
-                if self._crowded:
-                    until = now
-                elif now < until and now - self._checked >= CHECK_EVERY:
-                    self._checked = now
-                    self._enough = cores_enough(self._cpus)
-                if not self._enough:
-                    until = now
+                until = self._permit.until(now, until)
             pause, take = self._yield, self._next
             while now < until:
                 frame = take()
@@ -910,7 +899,7 @@ class SharedMedium:
     def share_host(self, members: int) -> None:
         """This bus has ``members`` members on this host: more than CPUs and an
         adaptive member never polls (:mod:`fw1394.transport.media.idle`)."""
-        self._crowded = crowded(members, self._cpus)
+        self._permit.share_host(members)
 
     def sleep_until(self, deadline: Callable[[], float]) -> None:
         """Block, when nothing comes, until ``deadline()`` (monotonic) rather than
