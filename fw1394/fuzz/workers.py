@@ -17,6 +17,7 @@ import random
 import signal
 import threading
 import time
+from collections import defaultdict
 from collections.abc import Iterator
 from concurrent.futures import Future, ProcessPoolExecutor
 from contextlib import contextmanager
@@ -80,28 +81,99 @@ def run(
         return campaign.run(worker_settings(settings, 0, 1), progress, restart=restart, store=store)
     work = [(worker_settings(settings, w, jobs), restart, w) for w in range(jobs)]
     context = _context()
+    forwarded: dict[int, dict[tuple[str, str], Finding]] = defaultdict(dict)
+    with _sigterm_deferred():
+        pool = ProcessPoolExecutor(
+            jobs, mp_context=context, initializer=_start_worker, initargs=(os.getpid(),)
+        )
+        with _forwarded(store, context, forwarded), pool:
+            futures = [pool.submit(_work, job) for job in work]
+            try:
+                with _stoppable():
+                    for future in futures:
+                        future.exception()
+            except campaign.Terminated:
+                # SIGTERM reached this process only: hand it on, so that every worker
+                # ends its campaign now and returns what it found, as one job would.
+                for child in multiprocessing.active_children():
+                    child.terminate()
+        # Every worker has ended and every finding it handed on is written.
+        outcomes = zip(futures, work, strict=True)
+        reports = [_result(future, job[0], forwarded[job[2]]) for future, job in outcomes]
+        return merge(settings, reports, time.monotonic() - start)
+
+
+# SIGTERM in a campaign of several processes. An exception at an arbitrary point of
+# the pool's or a queue's code breaks them for good: raised in a worker just after it
+# took a queue's lock, the lock is never given back and the next writer waits forever;
+# in the fork's own clean-up it is ignored and the worker fuzzes on to the end of its
+# --duration; before a worker's campaign begins it kills the worker and breaks the
+# pool; in this process during submit, no worker hears of it. So the signal is only
+# noted, and raised as Terminated where an exception is harmless: inside a worker's
+# campaign (not while it hands on a finding) and while this process waits for them.
+
+#: SIGTERM came to this process (this campaign's, or a worker forked from it).
+_stop_requested = False
+#: Whether SIGTERM raises Terminated right now.
+_stop_raises = False
+
+
+def _on_sigterm(signum: int, frame: object) -> None:
+    global _stop_requested, _stop_raises
+    _stop_requested = True
+    if _stop_raises:
+        _stop_raises = False  # once: what runs after it must run whole
+        raise campaign.Terminated
+
+
+@contextmanager
+def _sigterm_deferred() -> Iterator[None]:
+    """SIGTERM is noted, not raised, while inside (and in workers forked inside)."""
+    global _stop_requested, _stop_raises
+    _stop_requested = _stop_raises = False
+    try:
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    except ValueError:  # not the main thread: the caller handles signals
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+@contextmanager
+def _stoppable() -> Iterator[None]:
+    """SIGTERM raises Terminated inside, at once if it came before."""
+    global _stop_raises
+    if _stop_requested:
+        raise campaign.Terminated
+    _stop_raises = True
+    try:
+        yield
+    finally:
+        _stop_raises = False
+
+
+@contextmanager
+def _unstoppable() -> Iterator[None]:
+    """SIGTERM waits until the end of the block (a message written whole, a lock given back)."""
+    global _stop_raises
+    raises, _stop_raises = _stop_raises, False
+    try:
+        yield
+    finally:
+        _stop_raises = raises
+    if raises and _stop_requested:
+        _stop_raises = False
+        raise campaign.Terminated
+
+
+def _start_worker(parent: int) -> None:
     # A worker left behind by a killed campaign goes too: what it found so far is
     # written already, and nothing would take the rest.
-    pool = ProcessPoolExecutor(
-        jobs,
-        mp_context=context,
-        initializer=die_with_parent,
-        initargs=(os.getpid(), signal.SIGKILL),
-    )
-    with _forwarded(store, context), pool:
-        futures = [pool.submit(_work, job) for job in work]
-        try:
-            reports = [future.result() for future in futures]
-        except campaign.Terminated:
-            # SIGTERM reached this process only: hand it on, so that every worker ends
-            # its campaign now and returns what it found, as one job would.
-            for child in multiprocessing.active_children():
-                child.terminate()
-            # A worker stopped before its campaign began has nothing to give.
-            reports = [r for r in map(_stopped_result, futures) if r is not None]
-            if not reports:
-                raise
-    return merge(settings, reports, time.monotonic() - start)
+    die_with_parent(parent, signal.SIGKILL)
+    signal.signal(signal.SIGTERM, _on_sigterm)  # forked workers have it already
 
 
 #: Where forked workers put each finding as they find it (inherited, not pickled).
@@ -111,16 +183,23 @@ _FOUND: Any = None
 class _Forwarding:
     """A worker's store: each finding goes to the campaign's process, which writes it."""
 
+    def __init__(self, worker: int) -> None:
+        self.worker = worker
+
     def put(self, finding: Finding) -> None:
-        _FOUND.put(finding)
+        with _unstoppable():
+            _FOUND.put((self.worker, finding))
 
     def report(self, data: dict[str, Any]) -> None:
         pass  # the merged report is written when the workers end
 
 
 @contextmanager
-def _forwarded(store: Store | None, context: Any) -> Iterator[None]:
-    """Workers forked inside hand their findings to ``store`` as they find them."""
+def _forwarded(
+    store: Store | None, context: Any, forwarded: dict[int, dict[tuple[str, str], Finding]]
+) -> Iterator[None]:
+    """Workers forked inside hand their findings to ``store`` as they find them (and to
+    ``forwarded``, by worker)."""
     global _FOUND
     if store is None or context.get_start_method() != "fork":
         yield
@@ -128,8 +207,10 @@ def _forwarded(store: Store | None, context: Any) -> Iterator[None]:
     queue = context.SimpleQueue()
 
     def write() -> None:
-        while (finding := queue.get()) is not None:
+        while (item := queue.get()) is not None:
+            worker, finding = item
             store.put(finding)
+            forwarded[worker][finding.key] = finding
 
     writer = threading.Thread(target=write, name="findings-writer", daemon=True)
     writer.start()
@@ -142,17 +223,26 @@ def _forwarded(store: Store | None, context: Any) -> Iterator[None]:
         writer.join()
 
 
-def _stopped_result(future: Future[Report]) -> Report | None:
+def _result(
+    future: Future[Report], settings: Settings, forwarded: dict[tuple[str, str], Finding]
+) -> Report:
+    """The worker's report; stopped by SIGTERM before its campaign began or after it
+    ended, one of the findings it handed on (they are written: the report names them)."""
     try:
         return future.result()
     except campaign.Terminated:
-        return None
+        report = Report(settings)
+        report.stopped = "terminated (SIGTERM)"
+        report.findings = list(forwarded.values())
+        report.notes.append("terminated: the findings are as found, not shrunk")
+        return report
 
 
 def _work(job: tuple[Settings, str | None, int]) -> Report:
     settings, restart, worker = job
-    sink = _Forwarding() if _FOUND is not None else None
-    return campaign.run(settings, restart=restart, worker=worker, store=sink)
+    sink = _Forwarding(worker) if _FOUND is not None else None
+    with _stoppable():
+        return campaign.run(settings, restart=restart, worker=worker, store=sink)
 
 
 def _context() -> multiprocessing.context.BaseContext:
