@@ -87,7 +87,8 @@ def run(
             jobs, mp_context=context, initializer=_start_worker, initargs=(os.getpid(),)
         )
         with _forwarded(store, context, forwarded), pool:
-            futures = [pool.submit(_work, job) for job in work]
+            with _sigterm_held():  # the workers are forked here
+                futures = [pool.submit(_work, job) for job in work]
             try:
                 with _stoppable():
                     for future in futures:
@@ -103,14 +104,15 @@ def run(
         return merge(settings, reports, time.monotonic() - start)
 
 
-# SIGTERM in a campaign of several processes. An exception at an arbitrary point of
-# the pool's or a queue's code breaks them for good: raised in a worker just after it
-# took a queue's lock, the lock is never given back and the next writer waits forever;
-# in the fork's own clean-up it is ignored and the worker fuzzes on to the end of its
+# SIGTERM in a campaign of several processes. Raised as an exception at an arbitrary
+# point it breaks the pool or a queue for good: in a worker just after it took a
+# queue's lock, the lock is never given back and the next writer waits forever; in
+# the fork's own clean-up it is ignored and the worker fuzzes on to the end of its
 # --duration; before a worker's campaign begins it kills the worker and breaks the
-# pool; in this process during submit, no worker hears of it. So the signal is only
-# noted, and raised as Terminated where an exception is harmless: inside a worker's
-# campaign (not while it hands on a finding) and while this process waits for them.
+# pool; in this process while it starts the pool, no worker hears of it. So the
+# signal is only noted, and raised as Terminated where an exception is harmless:
+# inside a worker's campaign (not while it hands on a finding) and while this
+# process waits for the workers.
 
 #: SIGTERM came to this process (this campaign's, or a worker forked from it).
 _stop_requested = False
@@ -169,11 +171,24 @@ def _unstoppable() -> Iterator[None]:
         raise campaign.Terminated
 
 
+@contextmanager
+def _sigterm_held() -> Iterator[None]:
+    """SIGTERM held back from this thread, and from workers forked inside until their
+    initializer: a forked child's interpreter forgets a signal that came before its own
+    after-fork clean-up (the worker would fuzz on), but not one held back for it."""
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)
+
+
 def _start_worker(parent: int) -> None:
     # A worker left behind by a killed campaign goes too: what it found so far is
     # written already, and nothing would take the rest.
     die_with_parent(parent, signal.SIGKILL)
     signal.signal(signal.SIGTERM, _on_sigterm)  # forked workers have it already
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
 
 
 #: Where forked workers put each finding as they find it (inherited, not pickled).
