@@ -176,40 +176,75 @@ def children(pid: int) -> list[str]:
         return []
 
 
-@pytest.mark.timeout(300)
-def test_sigterm_stops_every_worker_and_keeps_their_findings(tmp_path: Path) -> None:
-    """With --jobs the workers are other processes; SIGTERM reaches the campaign's only."""
-    found = tmp_path / "found"
-    workers: list[int] = []
+#: Seconds a campaign may take to end after SIGTERM (its --duration is 120 s).
+PROMPT_S = 30
+#: Campaigns per test: the moments that broke a campaign did so in most runs, not all.
+ROUNDS = 4
+
+
+def terminated_campaign(found: Path, moment: str, sender: str) -> tuple[int, str, str, list[int]]:
+    """A --jobs 2 campaign sent SIGTERM at ``moment``: its exit status, stdout, stderr
+    and workers."""
     process = subprocess.Popen(
         inproc_campaign(found, "--json", "--jobs", "2"),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        start_new_session=True,  # a process group of its own, as under timeout(1)
     )
+
+    def ready() -> bool:
+        if moment == "workers-forked":
+            return len(children(process.pid)) >= 2
+        return len(reproducers(found)) >= 1
+
+    workers: list[int] = []
     try:
-        wait_for(lambda: len(children(process.pid)) >= 2 or process.poll() is not None, STARTUP_S)
-        # The workers import and fuzz until their findings are handed on and written.
-        wait_for(lambda: len(reproducers(found)) >= 3 or process.poll() is not None, STARTUP_S)
-        # Findings can all come from one worker while the other is still starting.
-        # A SIGTERM sent at once after them hung the campaign once (not explained
-        # yet: the signal must end it at any moment), so every worker gets time
-        # to begin fuzzing, as before.
-        time.sleep(3)
+        wait_for(lambda: ready() or process.poll() is not None, STARTUP_S)
         assert process.poll() is None
         workers = [int(pid) for pid in children(process.pid)]
-        process.send_signal(signal.SIGTERM)
-        out, err = process.communicate(timeout=60)
+        if sender == "campaign":
+            process.send_signal(signal.SIGTERM)
+        else:
+            os.killpg(process.pid, signal.SIGTERM)
+        out, err = process.communicate(timeout=PROMPT_S)
     finally:
         process.kill()
         process.wait(30)
         for pid in workers:  # (gone already unless the test failed)
             with contextlib.suppress(ProcessLookupError):
                 os.kill(pid, signal.SIGKILL)
-    assert process.returncode == 1, err
-    report = json.loads(out)
-    assert report["stopped"] == "terminated (SIGTERM)"
-    assert report["cases"] > 0 and len(load(found)) == len(report["findings"]) >= 3
+    return process.returncode, out, err, workers
+
+
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("sender", ["campaign", "process-group"])
+@pytest.mark.parametrize("moment", ["workers-forked", "first-finding"])
+def test_sigterm_stops_every_worker_and_keeps_their_findings(
+    tmp_path: Path, moment: str, sender: str
+) -> None:
+    """With --jobs the workers are other processes, starting while the campaign's
+    process starts its pool. SIGTERM reaches the campaign's process alone (``kill``),
+    or every process of the group (``timeout``, a terminal); either way, as soon as the
+    workers are forked or have found something, the run ends at once with a report,
+    and the findings on disk are whole and the report's."""
+    for round_ in range(ROUNDS):
+        found = tmp_path / f"found{round_}"
+        status, out, err, workers = terminated_campaign(found, moment, sender)
+        assert "Traceback" not in err and "Exception" not in err, err
+        report = json.loads(out)
+        assert report["stopped"] == "terminated (SIGTERM)"
+        saved = json.loads((found / "report.json").read_text())
+        assert saved["stopped"] == "terminated (SIGTERM)"
+        # Exit status 1 with findings, as a finished run with findings.
+        assert status == (1 if report["findings"] else 0), err
+        # Every file is a whole finding, and the report names exactly those.
+        on_disk = {(f.oracle, f.signature) for _, f in load(found)}
+        assert len(on_disk) == len(reproducers(found))
+        assert on_disk == {(f["oracle"], f["signature"]) for f in report["findings"]}
+        if moment == "first-finding":
+            assert on_disk
+        assert not any(alive(pid) for pid in workers)
 
 
 @pytest.mark.slow
