@@ -178,13 +178,16 @@ def children(pid: int) -> list[str]:
 
 #: Seconds a campaign may take to end after SIGTERM (its --duration is 120 s).
 PROMPT_S = 30
-#: Campaigns per test: the moments that broke a campaign did so in most runs, not all.
-ROUNDS = 4
+#: One campaign per delay after the moment: SIGTERM broke a campaign at some moments
+#: a few milliseconds long, and not in every run.
+DELAYS_S = (0.0, 0.01, 0.03, 0.06)
 
 
-def terminated_campaign(found: Path, moment: str, sender: str) -> tuple[int, str, str, list[int]]:
-    """A --jobs 2 campaign sent SIGTERM at ``moment``: its exit status, stdout, stderr
-    and workers."""
+def terminated_campaign(
+    found: Path, moment: str, delay: float, sender: str
+) -> tuple[int, str, str, list[int]]:
+    """A --jobs 2 campaign sent SIGTERM ``delay`` seconds after ``moment``: its exit
+    status, stdout, stderr and workers."""
     process = subprocess.Popen(
         inproc_campaign(found, "--json", "--jobs", "2"),
         stdout=subprocess.PIPE,
@@ -194,13 +197,20 @@ def terminated_campaign(found: Path, moment: str, sender: str) -> tuple[int, str
     )
 
     def ready() -> bool:
+        if moment == "worker-forked":
+            return len(children(process.pid)) >= 1
         if moment == "workers-forked":
             return len(children(process.pid)) >= 2
         return len(reproducers(found)) >= 1
 
     workers: list[int] = []
     try:
-        wait_for(lambda: ready() or process.poll() is not None, STARTUP_S)
+        # Looked at every millisecond: the moments that broke a campaign last about that.
+        limit = time.monotonic() + STARTUP_S
+        while not ready() and process.poll() is None:
+            assert time.monotonic() < limit, "gave up waiting"
+            time.sleep(0.001)
+        time.sleep(delay)
         assert process.poll() is None
         workers = [int(pid) for pid in children(process.pid)]
         if sender == "campaign":
@@ -219,18 +229,18 @@ def terminated_campaign(found: Path, moment: str, sender: str) -> tuple[int, str
 
 @pytest.mark.timeout(300)
 @pytest.mark.parametrize("sender", ["campaign", "process-group"])
-@pytest.mark.parametrize("moment", ["workers-forked", "first-finding"])
+@pytest.mark.parametrize("moment", ["worker-forked", "workers-forked", "first-finding"])
 def test_sigterm_stops_every_worker_and_keeps_their_findings(
     tmp_path: Path, moment: str, sender: str
 ) -> None:
     """With --jobs the workers are other processes, starting while the campaign's
     process starts its pool. SIGTERM reaches the campaign's process alone (``kill``),
     or every process of the group (``timeout``, a terminal); either way, as soon as the
-    workers are forked or have found something, the run ends at once with a report,
-    and the findings on disk are whole and the report's."""
-    for round_ in range(ROUNDS):
-        found = tmp_path / f"found{round_}"
-        status, out, err, workers = terminated_campaign(found, moment, sender)
+    first worker is forked, or all, or a finding is written, the run ends at once with
+    a report, and the findings on disk are whole and the report's."""
+    for delay in DELAYS_S:
+        found = tmp_path / f"found-{delay}"
+        status, out, err, workers = terminated_campaign(found, moment, delay, sender)
         assert "Traceback" not in err and "Exception" not in err, err
         report = json.loads(out)
         assert report["stopped"] == "terminated (SIGTERM)"
