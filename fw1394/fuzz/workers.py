@@ -241,8 +241,9 @@ def _forwarded(
 def _result(
     future: Future[Report], settings: Settings, forwarded: dict[tuple[str, str], Finding]
 ) -> Report:
-    """The worker's report; stopped by SIGTERM before its campaign began or after it
-    ended, one of the findings it handed on (they are written: the report names them)."""
+    """The worker's report. Stopped by SIGTERM outside its campaign's loop (before it
+    began, or as it ended), a report of the findings it handed on: they are written,
+    so the report names them."""
     try:
         return future.result()
     except campaign.Terminated:
