@@ -224,7 +224,8 @@ def run_host(args: argparse.Namespace) -> int:
         return _run_access(client, scan, args)
 
 
-def _print_scan(scan: Any, as_json: bool) -> int:
+def _scan_summary(scan: Any) -> dict[str, Any]:
+    """What the start-up scan found, as ``jhu scan --json`` prints it."""
     rows = [
         {
             "node": b.node,
@@ -236,9 +237,15 @@ def _print_scan(scan: Any, as_json: bool) -> int:
         for b in scan.boards
     ]
     mode = "bridge" if scan.bridge else "ethernet-only"
+    return {"mode": mode, "hub_board": scan.hub_board, "boards": rows}
+
+
+def _print_scan(scan: Any, as_json: bool) -> int:
+    summary = _scan_summary(scan)
     if as_json:
-        print_json({"mode": mode, "hub_board": scan.hub_board, "boards": rows})
+        print_json(summary)
         return 0
+    mode, rows = summary["mode"], summary["boards"]
     print(f"mode {mode}, hub board {scan.hub_board}, protocol {scan.protocol.value}")
     table: list[tuple[str, ...]] = [("NODE", "BOARD", "HARDWARE", "FIRMWARE", "FPGA")]
     table += [tuple(str(row[key]) for key in ("node", "board_id", "hardware", "firmware", "fpga"))
@@ -298,7 +305,8 @@ def _run_rt(client: Any, scan: Any, args: argparse.Namespace) -> int:
     gc.freeze()
     report = measure(loop, args.cycles).as_dict()
     if args.json:
-        print_json(report)
+        # The scan it began with too: a script needs no second scan to know the boards.
+        print_json({**report, "scan": _scan_summary(scan)})
     else:
         print(
             f"{report['cycles']} cycles ({report['protocol']}, {report['boards']} boards): "

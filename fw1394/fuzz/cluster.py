@@ -12,6 +12,7 @@ fw1394 (and, for rtl: targets, Icarus Verilog and cocotb) installed.
 
 from __future__ import annotations
 
+import socket
 import time
 from typing import Any
 
@@ -36,6 +37,7 @@ def run(settings: Settings, address: str, *, jobs: int | None = None) -> Report:
         raise SettingsError(
             "--cluster with a remote target needs {worker} in the target (one node per worker)"
         )
+    _refuse_early(address)
     try:
         connect: Any = Client  # (distributed ships no type hints)
         client = connect(address, timeout=10)
@@ -52,6 +54,28 @@ def run(settings: Settings, address: str, *, jobs: int | None = None) -> Report:
     report = merge(settings, reports, time.monotonic() - start)
     report.notes.append(f"ran on the Dask cluster at {address}")
     return report
+
+
+#: Where a Dask scheduler listens unless the address names a port.
+SCHEDULER_PORT = 8786
+
+
+def _refuse_early(address: str) -> None:
+    """A TCP address nobody listens on fails now: Dask's client would try again
+    until its 10 s timeout. Other schemes (tls://, ws://) are left to Dask."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        scheme, location = parse_address(address)
+        host, port = parse_host_port(location, SCHEDULER_PORT)
+    except ValueError as error:
+        raise SettingsError(f"cluster {address}: {error}") from None
+    if scheme != "tcp":
+        return
+    try:
+        socket.create_connection((host, port), timeout=10).close()
+    except OSError as error:
+        raise SettingsError(f"cluster {address}: {error.strerror or error}") from None
 
 
 def _share(settings: Settings, worker: int) -> Report:

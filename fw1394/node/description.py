@@ -10,7 +10,7 @@ into the description.
 from __future__ import annotations
 
 import argparse
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from fw1394.boards.registry import BOARDS, check_defects
@@ -151,6 +151,12 @@ def add_node_options(parser: argparse.ArgumentParser) -> None:
         "thesis/jhu for boards)",
     )
     parser.add_argument("--rank", type=int, default=None, help="order key (default: start time)")
+    parser.add_argument(
+        "--new-bus",
+        action="store_true",
+        help="nobody is on the bus yet: start it at once instead of listening a lease for "
+        "its coordinator (bus up gives this to the first node of a bus it starts)",
+    )
     parser.add_argument("--parent-pid", type=int, default=None, help=argparse.SUPPRESS)
     parser.add_argument("--quiet", action="store_true", help="no log lines on stderr")
     add_defect_option(parser)
@@ -265,7 +271,7 @@ def description_from_arguments(args: argparse.Namespace) -> NodeDescription:
         rank=args.rank,
         policy=args.policy,
         defects=checked_defects(args.board, args.defect),
-        timing=timing(args),
+        timing=replace(timing(args), found_after=0.0) if args.new_bus else timing(args),
         faults=faults(args),
         quiet=args.quiet,
         parent_pid=args.parent_pid,

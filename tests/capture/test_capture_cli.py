@@ -6,6 +6,7 @@ import csv
 import io
 import json
 import re
+import signal
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -231,13 +232,14 @@ def test_capture_of_a_live_virtual_bus(tmp_path: Path, unique_bus_name: str) -> 
     try:
         capture = subprocess.Popen(
             [sys.executable, "-m", "fw1394.cli.main", "capture", "--bus", name, "-w", str(path),
-             "--duration", "4"],
+             "--duration", "60"],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         )  # fmt: skip
         # The capture creates its output file once its tap has joined the bus.
         wait_until(lambda: path.exists() or capture.poll() is not None, timeout=30)
         for node in ("0", "1"):
             fw1394("read", "--name", name, node, "0xfffff0000400", timeout=10)
+        capture.send_signal(signal.SIGINT)  # Ctrl-C: what it has is written
         out, err = capture.communicate(timeout=30)
     finally:
         fw1394("bus", "down", "--name", name)

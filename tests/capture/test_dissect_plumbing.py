@@ -6,6 +6,7 @@ import io
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -277,13 +278,17 @@ def test_live_bus_piped_into_dissect_and_tshark(tmp_path: Path) -> None:
     try:
         capture = subprocess.Popen(
             [sys.executable, "-m", "fw1394.cli.main", "capture", "--bus", name, "-w", "-",
-             "--duration", "6"],
+             "--duration", "60"],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE,
         )  # fmt: skip
-        time.sleep(2.0)
+        # The file header comes out as soon as the capture's tap listens.
+        assert capture.stdout is not None
+        head = os.read(capture.stdout.fileno(), 65536)
         for node in ("0", "1"):
             fw1394("read", "--name", name, node, "0xfffff0000400", timeout=20)
-        trace, err = capture.communicate(timeout=60)
+        capture.send_signal(signal.SIGINT)  # Ctrl-C: what it has is written
+        rest, err = capture.communicate(timeout=60)
+        trace = head + rest
     finally:
         fw1394("bus", "down", "--name", name)
     assert capture.returncode == 0, err

@@ -31,7 +31,7 @@ from spec_crc import crc32_1394
 
 from fw1394.capture.formats import bus_recorder, bus_tap, live
 from fw1394.capture.formats.bus_tap import BusTap
-from fw1394.capture.formats.live import CaptureError, Limits, capture_records
+from fw1394.capture.formats.live import ACK_GRACE_S, CaptureError, Limits, capture_records
 from fw1394.capture.formats.pcap_writer import PcapngWriter, PcapWriter
 from fw1394.capture.formats.record import BusRecord, RecordType
 from fw1394.transport.sansio.config import BusConfig
@@ -569,13 +569,36 @@ def test_a_capture_that_runs_out_of_time_before_its_count_waits_for_no_acks() ->
     assert source.timeouts and max(source.timeouts) <= 0.05  # no grace after the time is up
 
 
-def test_a_stop_request_ends_a_capture_at_once_even_at_its_count() -> None:
+def test_a_stop_request_takes_what_is_queued_then_ends() -> None:
+    # Ctrl-C after the first packet: what already reached the tap is written, the
+    # next packet included (past the count, but queued before the stop), each
+    # receive waiting no longer than the grace time; the first empty one ends it.
     stop = threading.Event()
-    source = ScriptedSource([packet(1), ack(2), ack(3)])
+    source = ScriptedSource([packet(1), ack(2), packet(3), ack(4)])
     writer, stream = pcapng_writer()
-    assert capture_records(source, writer, Limits(stop, count=1), lambda line: stop.set()) == 1
-    assert len(source.timeouts) == 1
-    assert len(enhanced_packets(stream.getvalue())) == 1
+    assert capture_records(source, writer, Limits(stop, count=1), lambda line: stop.set()) == 2
+    assert len(source.timeouts) == 5 and all(0 < t <= ACK_GRACE_S for t in source.timeouts[1:])
+    assert len(enhanced_packets(stream.getvalue())) == 4
+
+
+class EndlessSource:
+    """A bus that never goes quiet: a packet on every receive."""
+
+    def __init__(self) -> None:
+        self.handed = 0
+
+    def receive(self, timeout: float) -> BusRecord | None:
+        self.handed += 1
+        return packet(self.handed)
+
+
+@pytest.mark.timeout(30)  # without the grace time's bound, the capture never ends
+def test_a_stop_request_ends_a_busy_capture_within_the_grace_time() -> None:
+    stop = threading.Event()
+    stop.set()
+    busy = EndlessSource()
+    writer, _ = pcapng_writer()
+    assert capture_records(busy, writer, Limits(stop)) == busy.handed > 0
 
 
 def test_a_capture_without_limits_polls_a_few_times_a_second_for_a_stop() -> None:
@@ -585,7 +608,8 @@ def test_a_capture_without_limits_polls_a_few_times_a_second_for_a_stop() -> Non
     )
     writer, stream = pcapng_writer()
     assert capture_records(source, writer, Limits(stop)) == 2  # the packet and the bus reset
-    assert len(source.timeouts) == 4 and all(0 < t <= 0.25 for t in source.timeouts)
+    # Four receives until the stop, one more that finds nothing queued after it.
+    assert len(source.timeouts) == 5 and all(0 < t <= 0.25 for t in source.timeouts)
     assert len(enhanced_packets(stream.getvalue())) == 3
 
 

@@ -190,7 +190,8 @@ def test_broadcast_read_every_cycle_against_a_served_rack(
     thread = threading.Thread(target=server.serve_forever, daemon=True)
     thread.start()
     try:
-        with EthUdpClient(Endpoint("127.0.0.1", port), receive_timeout=0.5) as client:
+        # Ten times the host library's 20 ms: every absent node of the scan waits it.
+        with EthUdpClient(Endpoint("127.0.0.1", port), receive_timeout=0.2) as client:
             scan = start(client)
             assert sorted(b.board_id for b in scan.boards) == ids
             loop = RealTimeLoop(client, scan, Protocol.BC_QRW)

@@ -31,6 +31,7 @@ OWNERS = {
     "fw1394/capture/formats/live.py": "capturing a real interface (AF_PACKET)",
     "fw1394/fuzz/serve.py": "a fuzz target served over UDP",
     "fw1394/fuzz/udptarget.py": "fuzzing a target over UDP",
+    "fw1394/fuzz/cluster.py": "a probe that a Dask scheduler listens before its client waits",
     "fw1394/rtl/simulation.py": "the HDL simulator's control connection (listening end)",
     "fw1394/rtl/cocotb_node.py": "the HDL simulator's control connection (inside the simulator)",
     "fw1394/experiments/baseline.py": "the raw UDP ping-pong every benchmark is compared against",

@@ -86,7 +86,8 @@ def record_summary(record: BusRecord, clock: Callable[[int], str] | None = None)
     return f"{stamp} {text}"
 
 
-#: After the COUNTth packet, how long a capture waits for acks still on their way.
+#: After the COUNTth packet, how long a capture waits for acks still on their way;
+#: after a stop request, how long it takes what is still queued.
 ACK_GRACE_S = 0.2
 
 
@@ -119,13 +120,21 @@ def capture_records(
         if time.monotonic() - flushed > FLUSH_S:
             writer.flush()
             flushed = time.monotonic()
-    if limits.count is not None and packets >= limits.count and not limits.stop.is_set():
+    stopped = limits.stop.is_set()
+    if stopped or (limits.count is not None and packets >= limits.count):
+        # Stopped (Ctrl-C): what reached the tap before is part of the trace, as
+        # are the acks of its last packets. Counted: only those acks. Either way
+        # for at most a grace time, however busy the bus.
         grace = time.monotonic() + ACK_GRACE_S
         while (left := grace - time.monotonic()) > 0:
             record = source.receive(left)
-            if record is None or record.record_type != RecordType.ack:
+            if record is None:
+                break
+            is_packet = record.record_type != RecordType.ack
+            if is_packet and not stopped:
                 break  # the next packet: past the count
             keep(record)
+            packets += is_packet
     writer.flush()
     return packets
 

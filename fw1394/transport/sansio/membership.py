@@ -60,6 +60,11 @@ class Timing:
     join_retry: float = 0.05
     settle: float = 0.002  # joins and leaves within this time share one reset
     self_id_timeout: float = 1.0  # a self-ID phase not complete by then is repeated
+    #: How long a member that was never on the bus listens for a coordinator before
+    #: it starts a bus of its own; None: a lease, so that a coordinator stopped for
+    #: less than that is not replaced. 0 suits only the first node of a bus known
+    #: to be new (``bus up`` knows); a member that rejoins always waits a lease.
+    found_after: float | None = None
 
 
 class Role(StrEnum):
@@ -128,6 +133,9 @@ class Membership:
         # member id -> (sort key, last time heard) of coordinators beaconing
         self._coordinators: dict[int, tuple[SortKey, float]] = {}
         self._silence_since = now  # last beacon of the followed coordinator
+        #: Silence before a joining member starts a bus of its own.
+        found_after = self.timing.found_after
+        self._listen = self.timing.lease if found_after is None else found_after
         self._last_join = -math.inf
         self._last_heartbeat = -math.inf
         self._reset_time = now
@@ -154,7 +162,7 @@ class Membership:
     def next_deadline(self) -> float:
         t = self.timing
         if self.role is Role.joining:
-            return min(self._last_join + t.join_retry, self._silence_since + t.lease)
+            return min(self._last_join + t.join_retry, self._silence_since + self._listen)
         due = self._last_heartbeat + t.heartbeat
         if self.role is Role.coordinator:
             due = min(due, self._boss.last_beacon + t.heartbeat)
@@ -236,6 +244,7 @@ class Membership:
         best = self._best_coordinator(now)
         if self.role is Role.joining:
             self._silence_since = now
+            self._listen = self.timing.lease  # a bus is there: join it
         elif best != self._coordinator and best is not None:
             # A coordinator with a lower key is around: yield to it.
             self._rejoin(now)
@@ -339,7 +348,7 @@ class Membership:
         if away > 2 * t.heartbeat and self.role is not Role.joining:
             self._back_from_pause(away)
         if self.role is Role.joining:
-            if now - self._silence_since >= t.lease:
+            if now - self._silence_since >= self._listen:
                 self._found_bus(now)
             elif now - self._last_join >= t.join_retry:
                 self._send_join(now)
@@ -451,6 +460,7 @@ class Membership:
         self.role = Role.joining
         self.phy_id = None
         self._silence_since = now
+        self._listen = self.timing.lease
         self._send_join(now)
 
     def _send_join(self, now: float) -> None:

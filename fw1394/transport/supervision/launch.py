@@ -18,6 +18,7 @@ from fw1394.transport.supervision.runtime import (
     NodeRecord,
     bus_dir,
     prepare,
+    read_members,
     read_nodes,
     stop_bus,
     supervisor_alive,
@@ -97,7 +98,15 @@ class LaunchedBus:
             cmd += ["--parent-pid", str(os.getpid())]
         if self.restart:
             cmd += ["--restart"]
+        if self._bus_is_new():
+            cmd += ["--new-bus"]
         return cmd + list(self.node_arguments)
+
+    def _bus_is_new(self) -> bool:
+        """Nobody can be on the bus: it stays on this host (TTL 0) and none of its
+        members runs here. Then its first node need not listen a lease for another
+        coordinator; if one appears after all, the two settle it by sort key."""
+        return self.config.ttl == 0 and not read_members(bus_dir(self.config.name))
 
     def start(self, timeout: float = 30.0) -> None:
         if supervisor_alive(self.directory) is not None:

@@ -42,6 +42,9 @@ def parse_args(argv: list[str]) -> tuple[argparse.Namespace, list[str]]:
     parser.add_argument("--parent-pid", type=int, default=None)
     parser.add_argument("--restart", action="store_true", help="restart nodes that die")
     parser.add_argument("--adapter", action="store_true", help="start the bus's host adapter")
+    parser.add_argument(
+        "--new-bus", action="store_true", help="nobody is on the bus: the first node starts it"
+    )
     # Everything else (interface, timing, faults, defects, Ethernet) is passed through
     # to each node as node options.
     return parser.parse_known_args(argv)
@@ -98,7 +101,10 @@ def main(argv: list[str]) -> int:
         for index in range(args.nodes):
             if stopping:
                 break
-            child = subprocess.Popen(node_command(args, index, passthrough))
+            # The first node of a new bus starts it at once; the others, and every
+            # restart, join the bus that is there.
+            first = ["--new-bus"] if args.new_bus and index == 0 else []
+            child = subprocess.Popen(node_command(args, index, passthrough) + first)
             children.append(child)
             board = board_of(args.board, index)
             records.append(NodeRecord(index, board, index % BOARD_ID_MODULUS, child.pid))
