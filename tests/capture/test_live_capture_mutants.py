@@ -1043,3 +1043,14 @@ def test_the_recorder_process_entry_says_why_it_cannot_write(
     missing = tmp_path / "no such directory" / "bus.pcapng"
     assert bus_recorder.main(["tapped", str(missing)]) == 1
     assert capsys.readouterr().err.startswith(f"fw1394 capture: {missing}: ")
+
+
+def test_a_packet_socket_refused_for_want_of_privilege_is_one_line(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    def refused(*args: object) -> socket.socket:
+        raise PermissionError(1, "Operation not permitted")
+
+    monkeypatch.setattr(socket, "socket", refused)  # the module live opens it from
+    with pytest.raises(CaptureError, match="CAP_NET_RAW"):
+        live.open_raw_socket("lo")

@@ -4,9 +4,11 @@ send heartbeats to the coordinator, the coordinator sends beacons)."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from fake_bus import FAKE_TIMING, TAG, FakeBus, settled
 
-from fw1394.transport.sansio.membership import Role
+from fw1394.transport.sansio.membership import Membership, Role
 from fw1394.transport.sansio.wire import (
     EVERY_MEMBER,
     FrameHeader,
@@ -118,3 +120,25 @@ def test_a_death_is_one_reset_a_settle_time_later_and_only_for_a_member() -> Non
     bus.run(0.2)  # the self-ID phase of the new generation
     after, members = settled(bus)
     assert after == before + 1 and [m.rank for m in members] == [0, 1]
+
+
+def test_an_incomplete_self_id_phase_is_repeated_after_its_timeout_not_before() -> None:
+    # A listed member that sends no self-ID (killed between two resets, its lease
+    # far from over) leaves the coordinator not ready: it resets again once the
+    # phase has lasted self_id_timeout, and not earlier.
+    timing = replace(FAKE_TIMING, lease=30.0, self_id_timeout=0.3)
+    bus = FakeBus(timing)
+    boss = Membership(MemberInfo(1000, 0), bus.now, replace(timing, found_after=0.0))
+    bus.members[1000] = boss
+    quiet = bus.add(1)
+    bus.run(0.5)
+    settled(bus)
+    bus.kill(quiet)
+    boss.request_reset(bus.now)
+    bus.run(0.05)
+    phase = boss.generation
+    assert not boss.ready
+    bus.run(0.2)  # 0.25 s into the phase
+    assert boss.generation == phase
+    bus.run(0.1)  # 0.35 s
+    assert boss.generation == phase + 1 and not boss.ready
