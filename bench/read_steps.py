@@ -29,6 +29,7 @@ from fw1394.experiments.regime import settle
 from fw1394.experiments.timing import collector_paused, cpu_split, pin
 from fw1394.host.bus_port import BusPort
 from fw1394.transport.media.idle import default_idle
+from fw1394.transport.media.udp import Medium
 
 STEPS = (
     ("host: from the call to the request's send", "prepare"),
@@ -48,6 +49,8 @@ class Clocks:
     def __init__(self, port: BusPort) -> None:
         station = port.station
         medium = station.medium
+        if not isinstance(medium, Medium):
+            raise SystemExit("read_steps times the UDP medium's sends: unset FW1394_MEDIUM")
         self.marks: list[int] = []
         self._originals = (station.send, station.receive, medium._sendto)
         self._station, self._medium = station, medium
