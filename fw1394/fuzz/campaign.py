@@ -15,7 +15,7 @@ import random
 import signal
 import time
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from dataclasses import replace
 from typing import Any, Protocol
 
@@ -69,22 +69,28 @@ class Terminated(KeyboardInterrupt):
 
 
 @contextmanager
-def terminable() -> Iterator[None]:
-    """SIGTERM (``timeout``, a service manager) ends a campaign as Ctrl-C does, but at
-    once: no shrinking, the findings saved as found."""
-
-    def stop(signum: int, frame: object) -> None:
-        raise Terminated
-
+def on_sigterm(handler: Callable[[int, Any], None]) -> Iterator[None]:
+    """``handler`` takes SIGTERM inside, the previous one after (in the main thread;
+    elsewhere the caller handles signals)."""
     try:
-        previous = signal.signal(signal.SIGTERM, stop)
-    except ValueError:  # not the main thread: the caller handles signals
+        previous = signal.signal(signal.SIGTERM, handler)
+    except ValueError:
         yield
         return
     try:
         yield
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def _raise_terminated(signum: int, frame: object) -> None:
+    raise Terminated
+
+
+def terminable() -> AbstractContextManager[None]:
+    """SIGTERM (``timeout``, a service manager) ends a campaign as Ctrl-C does, but at
+    once: no shrinking, the findings saved as found."""
+    return on_sigterm(_raise_terminated)
 
 
 def run(

@@ -133,15 +133,8 @@ def _sigterm_deferred() -> Iterator[None]:
     """SIGTERM is noted, not raised, while inside (and in workers forked inside)."""
     global _stop_requested, _stop_raises
     _stop_requested = _stop_raises = False
-    try:
-        previous = signal.signal(signal.SIGTERM, _on_sigterm)
-    except ValueError:  # not the main thread: the caller handles signals
+    with campaign.on_sigterm(_on_sigterm):
         yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
 
 
 @contextmanager
