@@ -14,6 +14,7 @@ A test that starts a process without the ``process`` marker fails (see
 from __future__ import annotations
 
 import compileall
+import multiprocessing
 import os
 import re
 import shutil
@@ -127,32 +128,58 @@ def _compile_package() -> None:
 def _rewrite_tests(config: pytest.Config) -> None:
     """Rewrite the test modules' asserts once, for every xdist worker to read.
 
-    Under PYTHONDONTWRITEBYTECODE pytest keeps no rewritten test module, so each
-    worker rewrote all of them again while it collected (about 4 s of CPU each).
-    pytest reads a rewritten module it finds in ``__pycache__`` whatever the
-    setting; this writes them with pytest's own functions, and when those are
-    not there (another pytest) the workers simply rewrite as before.
+    Left to themselves, the workers all start together, none finds a rewritten
+    module in ``__pycache__`` on a fresh checkout, and each rewrites every one
+    (about 4 s of CPU per worker); under PYTHONDONTWRITEBYTECODE they do so on
+    every run. pytest reads a rewritten module it finds in ``__pycache__``
+    whatever the setting: this writes those that are missing or out of date,
+    with pytest's own functions, on every CPU. When those functions are not
+    there (another pytest) the workers simply rewrite as before.
     """
-    if not sys.dont_write_bytecode:
-        return
     try:
         from _pytest.assertion import rewrite
 
-        state = config.stash[rewrite.assertstate_key]
+        config.stash[rewrite.assertstate_key]
         tail = rewrite.PYC_TAIL
     except (ImportError, AttributeError, KeyError):
         return
     here = Path(__file__).parent
+    stale = []
     for path in sorted([*here.rglob("test_*.py"), *here.rglob("conftest.py")]):
         cache = rewrite.get_cache_dir(path)
+        pyc = cache / (path.name[:-3] + tail)
+        if rewrite._read_pyc(path, pyc) is not None:
+            continue
         if not cache.exists():
             cache.mkdir()
-            _written.append(cache)
-        try:
-            source_hash, code = rewrite._rewrite_test(path, config)
-            rewrite._write_pyc(state, code, source_hash, cache / (path.name[:-3] + tail))
-        except (AttributeError, TypeError, OSError, SyntaxError):
-            return  # another pytest's internals, or a module it will report itself
+            if sys.dont_write_bytecode:
+                _written.append(cache)
+        stale.append((path, pyc))
+    global _rewriting
+    _rewriting = config
+    cpus = len(os.sched_getaffinity(0))
+    if cpus > 1 and "fork" in multiprocessing.get_all_start_methods() and len(stale) > cpus:
+        with multiprocessing.get_context("fork").Pool(cpus) as pool:
+            pool.map(_rewrite_one, stale, chunksize=4)
+    else:
+        for item in stale:
+            _rewrite_one(item)
+
+
+#: The configuration the test modules are rewritten with (inherited by forked helpers).
+_rewriting: pytest.Config | None = None
+
+
+def _rewrite_one(item: tuple[Path, Path]) -> None:
+    from _pytest.assertion import rewrite
+
+    path, pyc = item
+    assert _rewriting is not None
+    try:
+        source_hash, code = rewrite._rewrite_test(path, _rewriting)
+        rewrite._write_pyc(_rewriting.stash[rewrite.assertstate_key], code, source_hash, pyc)
+    except (AttributeError, TypeError, OSError, SyntaxError):
+        pass  # another pytest's internals, or a module it will report itself
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
