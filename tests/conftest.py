@@ -166,7 +166,7 @@ def _rewrite_tests(config: pytest.Config) -> None:
             _rewrite_one(item)
 
 
-#: The configuration the test modules are rewritten with (inherited by forked helpers).
+#: The configuration the test modules are rewritten with (the forked rewriters inherit it).
 _rewriting: pytest.Config | None = None
 
 
