@@ -11,6 +11,7 @@ import struct
 from typing import cast
 
 import pytest
+from clocked_space import ClockedSpace
 
 from fw1394.boards.memory.board import MemorySpace
 from fw1394.engine import (
@@ -240,7 +241,7 @@ def test_a_damaged_response_is_discarded_unacked(flip: int) -> None:
     link = RequesterLink(requester, lambda k, d, p: sent.append((k, d, p)))
     tid = requester.read_quadlet(NODE_ID, 0x40, 0.0)
     link.flush()
-    (_, _, raw), = sent
+    ((_, _, raw),) = sent
     label = decode_packet(raw).tlabel  # type: ignore[attr-defined]
     response = bytearray(
         encode_packet(
@@ -261,18 +262,6 @@ def test_a_damaged_response_is_discarded_unacked(flip: int) -> None:
     assert failure.reason == FailureReason.response_timeout
 
 
-class _ClockedSpace(MemorySpace):
-    """A memory board that remembers the clock each request brought it."""
-
-    def __init__(self) -> None:
-        super().__init__(4096)
-        self.clock: list[int] = []
-
-    def set_time(self, ticks: int) -> None:
-        self.clock.append(ticks)
-        super().set_time(ticks)
-
-
 class _ReferenceResponder(Responder):
     """The same rules, but not the class the link's fast path takes."""
 
@@ -282,7 +271,7 @@ def test_the_board_clock_counts_from_the_links_epoch(responder_class: type[Respo
     # The boards count 49.152 MHz ticks (thesis §6.3) from their node's start, so a
     # request arriving 0.5 s after an epoch of 100 s finds the clock at 0.5 s of ticks,
     # on the fast path and on the reference path alike.
-    space = _ClockedSpace()
+    space = ClockedSpace()
     responder = responder_class(node_id=0xFFFF, space=space, policy=THESIS_FPGA)
     sent: Sent = []
     link = ResponderLink(responder, lambda k, d, p: sent.append((k, d, p)), epoch=100.0)

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import struct
 
+from clocked_space import ClockedSpace
+
 from fw1394.boards.memory.board import MemorySpace
 from fw1394.engine import THESIS_FPGA, ReadCompleted, Requester, Responder
 from fw1394.packets import QuadletReadRequest, QuadletReadResponse, QuadletWriteRequest
@@ -87,21 +89,9 @@ def test_a_decoded_packet_is_answered_like_its_bytes() -> None:
     assert space.read_quadlet(0x44) == 7
 
 
-class _ClockedSpace(MemorySpace):
-    """Memory that records the board time it is told (49.152 MHz ticks)."""
-
-    def __init__(self) -> None:
-        super().__init__(4096)
-        self.clock: list[int] = []
-
-    def set_time(self, ticks: int) -> None:
-        self.clock.append(ticks)
-        super().set_time(ticks)
-
-
 def test_a_decoded_packet_finds_the_board_clock_counted_from_the_links_epoch() -> None:
     # As for bytes: 0.5 s after an epoch of 100 s is 0.5 s of 49.152 MHz ticks.
-    space = _ClockedSpace()
+    space = ClockedSpace()
     link = ResponderLink(Responder(node_id=0xFFFF, space=space, policy=THESIS_FPGA),
                          lambda k, d, p: 0, epoch=100.0)  # fmt: skip
     link.apply([BusReset(generation=0, phy_id=NODE_PHY, members=(), initiator=0)])

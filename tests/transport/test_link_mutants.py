@@ -13,6 +13,7 @@ import struct
 from typing import cast
 
 import pytest
+from clocked_space import ClockedSpace
 
 from fw1394.boards.memory.board import MemorySpace
 from fw1394.engine import IEEE1394_NODE, THESIS_FPGA, Requester, Responder
@@ -215,20 +216,8 @@ def test_a_new_link_runs_its_stations_timers_at_its_first_turn() -> None:
     assert station.serviced == [0.5]
 
 
-class _ClockedSpace(MemorySpace):
-    """Memory that records the board time it is told (49.152 MHz ticks)."""
-
-    def __init__(self) -> None:
-        super().__init__(4096)
-        self.clock: list[int] = []
-
-    def set_time(self, ticks: int) -> None:
-        self.clock.append(ticks)
-        super().set_time(ticks)
-
-
 def test_without_an_epoch_the_board_clock_is_the_links_time() -> None:
-    space = _ClockedSpace()
+    space = ClockedSpace()
     link = ResponderLink(
         Responder(node_id=0xFFFF, space=space, policy=THESIS_FPGA), lambda k, d, p: None
     )
